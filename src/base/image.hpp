@@ -1,0 +1,33 @@
+#pragma once
+/// @file image.hpp
+/// @brief An RGBA image in memory: 16 bits per channel, sRGB-encoded colour, straight
+/// (unassociated) alpha, rows top to bottom. io/png writes it at 8 or 16 bits; render/ fills it.
+
+#include <cstdint>
+#include <vector>
+
+namespace dgv {
+
+struct Image {
+    int width = 0;
+    int height = 0;
+    /// width*height*4 samples, row-major from the top row, channel order R,G,B,A, 0..65535.
+    std::vector<std::uint16_t> rgba;
+
+    Image() = default;
+    Image(int w, int h) : width(w), height(h), rgba(static_cast<std::size_t>(w) * h * 4, 0) {}
+
+    std::uint16_t* pixel(int x, int y) {
+        return rgba.data() + (static_cast<std::size_t>(y) * width + x) * 4;
+    }
+    const std::uint16_t* pixel(int x, int y) const {
+        return rgba.data() + (static_cast<std::size_t>(y) * width + x) * 4;
+    }
+};
+
+/// 16-bit sample to the nearest 8-bit code value (exact rounding: v*255/65535).
+inline std::uint8_t to8bit(std::uint16_t v) {
+    return static_cast<std::uint8_t>((static_cast<std::uint32_t>(v) * 255u + 32767u) / 65535u);
+}
+
+}  // namespace dgv

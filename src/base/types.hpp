@@ -1,0 +1,42 @@
+#pragma once
+/// @file types.hpp
+/// @brief dgv's one scalar and its aliases. Double everywhere in the core; float only at the
+/// edges (io/vdb_write, render/). See docs/conventions.md.
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <limits>
+
+namespace dgv {
+
+using Real = double;
+using Index = std::int64_t;
+
+using Vec2 = Eigen::Matrix<Real, 2, 1>;
+using Vec3 = Eigen::Matrix<Real, 3, 1>;
+using Vec4 = Eigen::Matrix<Real, 4, 1>;
+using Mat3 = Eigen::Matrix<Real, 3, 3>;
+using Mat4 = Eigen::Matrix<Real, 4, 4>;
+using Vec3i = Eigen::Matrix<int, 3, 1>;
+using Vec3f = Eigen::Matrix<float, 3, 1>;
+
+/// Axis-aligned box in world units. Empty when min > max in any component.
+struct Box3 {
+    Vec3 min = Vec3::Constant(std::numeric_limits<Real>::infinity());
+    Vec3 max = Vec3::Constant(-std::numeric_limits<Real>::infinity());
+
+    bool empty() const { return (min.array() > max.array()).any(); }
+    void extend(const Vec3& p) {
+        min = min.cwiseMin(p);
+        max = max.cwiseMax(p);
+    }
+    void extend(const Box3& b) {
+        min = min.cwiseMin(b.min);
+        max = max.cwiseMax(b.max);
+    }
+    Vec3 size() const { return max - min; }
+    Vec3 centre() const { return 0.5 * (min + max); }
+};
+
+}  // namespace dgv

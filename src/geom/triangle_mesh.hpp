@@ -1,0 +1,56 @@
+#pragma once
+/// @file triangle_mesh.hpp
+/// @brief Triangle meshes as dgv holds them after import: world-space vertices (double),
+/// counter-clockwise triangles seen from outside (outward normals by the right-hand rule).
+
+#include "base/types.hpp"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace dgv {
+
+struct TriangleMesh {
+    std::vector<Vec3> vertices;                 ///< #V positions, world units
+    std::vector<std::array<int, 3>> triangles;  ///< #T vertex indices, CCW from outside
+
+    std::size_t vertexCount() const { return vertices.size(); }
+    std::size_t triangleCount() const { return triangles.size(); }
+};
+
+/// What `dgv info` reports about a mesh's topology and size.
+struct MeshReport {
+    std::size_t vertices = 0;
+    std::size_t triangles = 0;
+    std::size_t degenerateDropped = 0;  ///< zero-area or repeated-index triangles removed
+    Box3 bounds;
+    bool closed = false;      ///< every edge has exactly two incident triangles
+    bool manifold = false;    ///< every edge has at most two incident triangles, and
+                              ///< consistently oriented ones where two
+    std::size_t boundaryEdges = 0;     ///< edges with one triangle (holes)
+    std::size_t nonManifoldEdges = 0;  ///< edges with three or more triangles
+    Real signedVolume = 0;    ///< sum of signed tetrahedra to the origin (exact for closed meshes)
+};
+
+/// Removes triangles with repeated indices or zero area (|cross| <= 1e-14 * longest edge^2);
+/// returns how many were dropped. Unreferenced vertices are kept.
+std::size_t dropDegenerateTriangles(TriangleMesh& mesh);
+
+/// Bounds of the vertices referenced by triangles (empty box for an empty mesh).
+Box3 meshBounds(const TriangleMesh& mesh);
+
+/// Signed volume by the divergence theorem: sum over triangles of det(a, b, c) / 6.
+Real meshSignedVolume(const TriangleMesh& mesh);
+
+/// Edge topology, bounds and volume in one pass (degenerateDropped is left at 0).
+MeshReport analyseMesh(const TriangleMesh& mesh);
+
+/// Applies x -> A x + t to every vertex. A with det < 0 also flips every triangle's winding so
+/// that normals stay outward.
+void transformMesh(TriangleMesh& mesh, const Mat3& linear, const Vec3& translation);
+
+/// Per-vertex normals: area-weighted sum of incident face normals, normalised.
+std::vector<Vec3> vertexNormals(const TriangleMesh& mesh);
+
+}  // namespace dgv
