@@ -1,1 +1,664 @@
-// placeholder
+#include "render/renderer.hpp"
+
+#include "base/errors.hpp"
+#include "base/parallel.hpp"
+#include "render/gl_context.hpp"
+#include "render/shader_program.hpp"
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+#include <Eigen/Geometry>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+
+namespace dgv {
+
+namespace fs = std::filesystem;
+using render::GlContext;
+using render::ShaderProgram;
+
+namespace {
+
+constexpr int kShadowMapSize = 2048;
+constexpr int kMaxTextureSize = 16384;
+
+/// The exact sRGB transfer function (IEC 61966-2-1), linear [0,1] -> encoded [0,1].
+double encodeSrgb(double x) {
+    x = std::clamp(x, 0.0, 1.0);
+    return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+}
+
+bool hasShaders(const fs::path& dir) {
+    std::error_code ec;
+    return fs::is_regular_file(dir / "mesh.vert", ec) && fs::is_regular_file(dir / "mesh.frag", ec);
+}
+
+/// Column-major float copy of an Eigen double matrix, for glUniformMatrix4fv.
+struct Mat4f {
+    float v[16];
+    explicit Mat4f(const Mat4& m) {
+        for (int c = 0; c < 4; ++c)
+            for (int r = 0; r < 4; ++r) v[c * 4 + r] = static_cast<float>(m(r, c));
+    }
+};
+
+void setMat4(const ShaderProgram& p, const char* name, const Mat4& m) {
+    Mat4f f(m);
+    glUniformMatrix4fv(p.uniform(name), 1, GL_FALSE, f.v);
+}
+void setVec3(const ShaderProgram& p, const char* name, const Vec3& v) {
+    glUniform3f(p.uniform(name), static_cast<float>(v.x()), static_cast<float>(v.y()),
+                static_cast<float>(v.z()));
+}
+void setFloat(const ShaderProgram& p, const char* name, double v) {
+    glUniform1f(p.uniform(name), static_cast<float>(v));
+}
+void setInt(const ShaderProgram& p, const char* name, int v) { glUniform1i(p.uniform(name), v); }
+
+Mat4 orthographic(Real l, Real r, Real b, Real t, Real n, Real f) {
+    Mat4 m = Mat4::Identity();
+    m(0, 0) = 2 / (r - l);
+    m(1, 1) = 2 / (t - b);
+    m(2, 2) = -2 / (f - n);
+    m(0, 3) = -(r + l) / (r - l);
+    m(1, 3) = -(t + b) / (t - b);
+    m(2, 3) = -(f + n) / (f - n);
+    return m;
+}
+
+/// GPU buffers of one mesh, kept across frames and grown when needed.
+struct MeshSlot {
+    GLuint vao = 0, vbo = 0, ebo = 0;
+    std::size_t vboCapacity = 0;  // bytes
+    std::size_t eboCapacity = 0;  // bytes
+    GLsizei indexCount = 0;
+    // Topology cache: the triangles last uploaded, and the vertex -> triangle map (CSR) used
+    // to sum the area-weighted normals in a fixed order (deterministic, parallel).
+    std::vector<std::array<int, 3>> triangles;
+    std::size_t vertexCount = 0;
+    std::vector<int> adjacencyStart;
+    std::vector<int> adjacency;
+    std::vector<float> interleaved;  // position xyz, normal xyz per vertex
+    std::vector<Vec3f> faceNormals;  // area-weighted (cross product of two edges)
+};
+
+}  // namespace
+
+std::vector<std::string> RenderSettings::validate() const {
+    std::vector<std::string> problems;
+    if (width < 1 || width > kMaxTextureSize)
+        problems.push_back("width: expected 1.." + std::to_string(kMaxTextureSize) + ", got " +
+                           std::to_string(width));
+    if (height < 1 || height > kMaxTextureSize)
+        problems.push_back("height: expected 1.." + std::to_string(kMaxTextureSize) + ", got " +
+                           std::to_string(height));
+    if (supersample < 1 || supersample > 4) {
+        problems.push_back("supersample: expected 1..4, got " + std::to_string(supersample));
+    } else if (static_cast<long>(width) * supersample > kMaxTextureSize ||
+               static_cast<long>(height) * supersample > kMaxTextureSize) {
+        problems.push_back("supersample: width and height times supersample must stay within " +
+                           std::to_string(kMaxTextureSize));
+    }
+    for (int i = 0; i < 3; ++i) {
+        if (!(background[i] >= 0 && background[i] <= 1)) {
+            problems.push_back("background: expected linear RGB components in [0,1]");
+            break;
+        }
+    }
+    return problems;
+}
+
+std::string findShaderDir() {
+    if (const char* env = std::getenv("DGV_SHADER_DIR"); env && *env) {
+        if (hasShaders(env)) return env;
+        throw RuntimeError(std::string("DGV_SHADER_DIR=") + env + ": no mesh.vert/mesh.frag there");
+    }
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) {
+        const fs::path exeDir = exe.parent_path();
+        for (const fs::path& dir : {exeDir / "shaders", exeDir / ".." / "share" / "dgv" / "shaders"}) {
+            if (hasShaders(dir)) return fs::weakly_canonical(dir, ec).string();
+        }
+    }
+#ifdef DGV_SHADER_DIR
+    if (hasShaders(DGV_SHADER_DIR)) return DGV_SHADER_DIR;
+#endif
+    throw RuntimeError("cannot find dgv's shaders (mesh.vert, ...): set DGV_SHADER_DIR, or install "
+                       "them in <dgv dir>/shaders or <dgv dir>/../share/dgv/shaders");
+}
+
+struct Renderer::Impl {
+    RenderSettings settings;
+    GlContext context;
+    ShaderProgram meshProgram, groundProgram, groundPlainProgram, shadowProgram, resolveProgram;
+
+    // Supersampled target: RGBA16F colour texture + 24-bit depth renderbuffer.
+    GLuint sceneFbo = 0, sceneColour = 0, sceneDepth = 0;
+    // Final target: RGBA16 (unorm) at output size, read back as 16-bit samples.
+    GLuint outFbo = 0, outColour = 0;
+    int targetWidth = 0, targetHeight = 0, targetFactor = 0;
+    // Key-light shadow map.
+    GLuint shadowFbo = 0, shadowDepth = 0;
+    // Ground: a 4x4 grid of vertices (3x3 cells, no T-junctions); the centre cell covers where
+    // shadows can fall and is drawn with the shadowed program, the other 8 without shadows.
+    GLuint groundVao = 0, groundVbo = 0, groundEbo = 0;
+    static constexpr int kGroundOuterIndices = 8 * 6;
+    GLuint emptyVao = 0;
+    std::vector<MeshSlot> meshes;
+    std::vector<std::uint16_t> readback;
+    Renderer::Timings timings;
+
+    explicit Impl(const RenderSettings& s) : settings(s) {
+        const std::string dir = s.shaderDir.empty() ? findShaderDir() : s.shaderDir;
+        meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl");
+        groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl");
+        groundPlainProgram =
+            ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", "#define DGV_SHADOWS 0\n");
+        shadowProgram = ShaderProgram(dir, "shadow.vert", "shadow.frag");
+        resolveProgram = ShaderProgram(dir, "resolve.vert", "resolve.frag");
+
+        glGenVertexArrays(1, &emptyVao);
+        glGenVertexArrays(1, &groundVao);
+        glGenBuffers(1, &groundVbo);
+        glGenBuffers(1, &groundEbo);
+        glBindVertexArray(groundVao);
+        glBindBuffer(GL_ARRAY_BUFFER, groundVbo);
+        glBufferData(GL_ARRAY_BUFFER, 16 * 3 * sizeof(float), nullptr, GL_DYNAMIC_DRAW);
+        glEnableVertexAttribArray(0);
+        glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+        {
+            // Cells (i, j) of the 4x4 vertex grid (vertex = j * 4 + i); the centre cell last.
+            std::vector<unsigned> indices;
+            auto cell = [&](unsigned i, unsigned j) {
+                const unsigned a = j * 4 + i, b = a + 1, c = a + 5, d = a + 4;
+                indices.insert(indices.end(), {a, d, b, b, d, c});
+            };
+            for (unsigned j = 0; j < 3; ++j)
+                for (unsigned i = 0; i < 3; ++i)
+                    if (i != 1 || j != 1) cell(i, j);
+            cell(1, 1);
+            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, groundEbo);
+            glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(unsigned)),
+                         indices.data(), GL_STATIC_DRAW);
+        }
+        glBindVertexArray(0);
+
+        // Shadow map: depth texture with hardware comparison (bilinear PCF per tap).
+        glGenTextures(1, &shadowDepth);
+        glBindTexture(GL_TEXTURE_2D, shadowDepth);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, kShadowMapSize, kShadowMapSize, 0,
+                     GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+        glGenFramebuffers(1, &shadowFbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, shadowFbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadowDepth, 0);
+        glDrawBuffer(GL_NONE);
+        glReadBuffer(GL_NONE);
+        checkFramebuffer("shadow map");
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        checkGlError("setting up the renderer");
+    }
+
+    ~Impl() {
+        context.makeCurrent();
+        for (MeshSlot& m : meshes) {
+            glDeleteVertexArrays(1, &m.vao);
+            glDeleteBuffers(1, &m.vbo);
+            glDeleteBuffers(1, &m.ebo);
+        }
+        glDeleteVertexArrays(1, &emptyVao);
+        glDeleteVertexArrays(1, &groundVao);
+        glDeleteBuffers(1, &groundVbo);
+        glDeleteBuffers(1, &groundEbo);
+        glDeleteFramebuffers(1, &shadowFbo);
+        glDeleteTextures(1, &shadowDepth);
+        releaseTargets();
+    }
+
+    static void checkFramebuffer(const char* what) {
+        const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+        if (status != GL_FRAMEBUFFER_COMPLETE) {
+            throw RuntimeError(std::string("OpenGL: the ") + what + " framebuffer is incomplete (status 0x" +
+                               [&] {
+                                   char buf[16];
+                                   std::snprintf(buf, sizeof buf, "%x", status);
+                                   return std::string(buf);
+                               }() + ")");
+        }
+    }
+
+    static void checkGlError(const char* what) {
+        const GLenum err = glGetError();
+        if (err != GL_NO_ERROR) {
+            char buf[16];
+            std::snprintf(buf, sizeof buf, "0x%x", err);
+            throw RuntimeError(std::string("OpenGL error ") + buf + " while " + what);
+        }
+    }
+
+    void releaseTargets() {
+        if (sceneFbo) glDeleteFramebuffers(1, &sceneFbo);
+        if (sceneColour) glDeleteTextures(1, &sceneColour);
+        if (sceneDepth) glDeleteRenderbuffers(1, &sceneDepth);
+        if (outFbo) glDeleteFramebuffers(1, &outFbo);
+        if (outColour) glDeleteTextures(1, &outColour);
+        sceneFbo = sceneColour = sceneDepth = outFbo = outColour = 0;
+        targetWidth = targetHeight = targetFactor = 0;
+    }
+
+    /// (Re)creates the render targets only when the size or the supersampling changes.
+    void ensureTargets(int w, int h, int factor) {
+        if (w == targetWidth && h == targetHeight && factor == targetFactor) return;
+        releaseTargets();
+        const int sw = w * factor, sh = h * factor;
+        glGenTextures(1, &sceneColour);
+        glBindTexture(GL_TEXTURE_2D, sceneColour);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, sw, sh, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        glGenRenderbuffers(1, &sceneDepth);
+        glBindRenderbuffer(GL_RENDERBUFFER, sceneDepth);
+        glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, sw, sh);
+        glGenFramebuffers(1, &sceneFbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, sceneColour, 0);
+        glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, sceneDepth);
+        checkFramebuffer("supersampled colour");
+
+        glGenTextures(1, &outColour);
+        glBindTexture(GL_TEXTURE_2D, outColour);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16, w, h, 0, GL_RGBA, GL_UNSIGNED_SHORT, nullptr);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        glGenFramebuffers(1, &outFbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, outFbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, outColour, 0);
+        checkFramebuffer("output");
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        checkGlError("creating the render targets");
+        targetWidth = w;
+        targetHeight = h;
+        targetFactor = factor;
+    }
+
+    /// Area-weighted vertex normals (sum of the unnormalised face normals around each vertex,
+    /// in triangle order) and the interleaved vertex data, then the upload.
+    void uploadMesh(MeshSlot& slot, const DrawMesh& mesh) {
+        if (!slot.vao) {
+            glGenVertexArrays(1, &slot.vao);
+            glGenBuffers(1, &slot.vbo);
+            glGenBuffers(1, &slot.ebo);
+            glBindVertexArray(slot.vao);
+            glBindBuffer(GL_ARRAY_BUFFER, slot.vbo);
+            glEnableVertexAttribArray(0);
+            glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+            glEnableVertexAttribArray(1);
+            glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                                  reinterpret_cast<const void*>(3 * sizeof(float)));
+            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, slot.ebo);  // recorded in the VAO
+            glBindVertexArray(0);
+        }
+        const std::size_t nv = mesh.positions.size();
+        const std::size_t nt = mesh.triangles.size();
+        for (const auto& t : mesh.triangles) {
+            for (int k = 0; k < 3; ++k) {
+                if (t[k] < 0 || static_cast<std::size_t>(t[k]) >= nv)
+                    throw InputError("", "render", "a triangle refers to vertex " + std::to_string(t[k]) +
+                                                       " of a mesh with " + std::to_string(nv));
+            }
+        }
+        const bool topologyChanged = slot.vertexCount != nv || slot.triangles != mesh.triangles;
+        if (topologyChanged) {
+            slot.triangles = mesh.triangles;
+            slot.vertexCount = nv;
+            slot.adjacencyStart.assign(nv + 1, 0);
+            for (const auto& t : mesh.triangles)
+                for (int k = 0; k < 3; ++k) ++slot.adjacencyStart[static_cast<std::size_t>(t[k]) + 1];
+            for (std::size_t i = 0; i < nv; ++i) slot.adjacencyStart[i + 1] += slot.adjacencyStart[i];
+            slot.adjacency.assign(static_cast<std::size_t>(slot.adjacencyStart[nv]), 0);
+            std::vector<int> fill(slot.adjacencyStart.begin(), slot.adjacencyStart.end() - 1);
+            for (std::size_t f = 0; f < nt; ++f)
+                for (int k = 0; k < 3; ++k)
+                    slot.adjacency[static_cast<std::size_t>(fill[static_cast<std::size_t>(mesh.triangles[f][k])]++)] =
+                        static_cast<int>(f);
+        }
+        slot.faceNormals.resize(nt);
+        parallelFor(static_cast<Index>(nt), [&](Index f) {
+            const auto& t = mesh.triangles[static_cast<std::size_t>(f)];
+            const Vec3 e1 = mesh.positions[static_cast<std::size_t>(t[1])] - mesh.positions[static_cast<std::size_t>(t[0])];
+            const Vec3 e2 = mesh.positions[static_cast<std::size_t>(t[2])] - mesh.positions[static_cast<std::size_t>(t[0])];
+            slot.faceNormals[static_cast<std::size_t>(f)] = e1.cross(e2).cast<float>();
+        });
+        slot.interleaved.resize(nv * 6);
+        parallelFor(static_cast<Index>(nv), [&](Index vi) {
+            const std::size_t v = static_cast<std::size_t>(vi);
+            Vec3f n = Vec3f::Zero();
+            for (int a = slot.adjacencyStart[v]; a < slot.adjacencyStart[v + 1]; ++a)
+                n += slot.faceNormals[static_cast<std::size_t>(slot.adjacency[static_cast<std::size_t>(a)])];
+            const float len = n.norm();
+            if (len > 0 && std::isfinite(len)) n /= len;
+            else n = Vec3f(0, 1, 0);
+            float* out = slot.interleaved.data() + v * 6;
+            out[0] = static_cast<float>(mesh.positions[v].x());
+            out[1] = static_cast<float>(mesh.positions[v].y());
+            out[2] = static_cast<float>(mesh.positions[v].z());
+            out[3] = n.x();
+            out[4] = n.y();
+            out[5] = n.z();
+        });
+
+        glBindBuffer(GL_ARRAY_BUFFER, slot.vbo);
+        const std::size_t vbytes = slot.interleaved.size() * sizeof(float);
+        if (vbytes > slot.vboCapacity) {
+            glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vbytes), slot.interleaved.data(), GL_DYNAMIC_DRAW);
+            slot.vboCapacity = vbytes;
+        } else if (vbytes > 0) {
+            glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(vbytes), slot.interleaved.data());
+        }
+        if (topologyChanged) {
+            glBindVertexArray(slot.vao);
+            const std::size_t ibytes = nt * 3 * sizeof(int);
+            static_assert(sizeof(std::array<int, 3>) == 3 * sizeof(int), "packed triangles");
+            if (ibytes > slot.eboCapacity) {
+                glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibytes), mesh.triangles.data(),
+                             GL_STATIC_DRAW);
+                slot.eboCapacity = ibytes;
+            } else if (ibytes > 0) {
+                glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ibytes), mesh.triangles.data());
+            }
+            glBindVertexArray(0);
+            slot.indexCount = static_cast<GLsizei>(nt * 3);
+        }
+    }
+
+    void drawMeshes(const FrameScene& scene) {
+        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+            if (meshes[i].indexCount == 0) continue;
+            glBindVertexArray(meshes[i].vao);
+            glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+        }
+        glBindVertexArray(0);
+    }
+
+    /// Sets the lights and shadow uniforms shared by mesh.frag and ground.frag (lighting.glsl).
+    struct Lights {
+        Vec3 keyDir, fillDir, rimDir;
+        Mat4 shadowFromWorld = Mat4::Identity();
+        Real shadowRadius = 0, normalOffset = 0;
+        bool shadows = false;
+    };
+
+    void setLighting(const ShaderProgram& p, const Lights& l) {
+        setVec3(p, "uKeyDir", l.keyDir);
+        setVec3(p, "uKeyColour", Vec3(1.00, 0.96, 0.90) * 0.95);
+        setVec3(p, "uFillDir", l.fillDir);
+        setVec3(p, "uFillColour", Vec3(0.80, 0.88, 1.00) * 0.22);
+        setVec3(p, "uRimDir", l.rimDir);
+        setVec3(p, "uRimColour", Vec3(1.0, 1.0, 1.0) * 0.7);
+        setVec3(p, "uSkyColour", Vec3(0.80, 0.87, 1.00) * 0.20);
+        setVec3(p, "uBounceColour", Vec3(1.00, 0.95, 0.90) * 0.06);
+        setMat4(p, "uShadowFromWorld", l.shadowFromWorld);
+        setFloat(p, "uShadowRadius", l.shadowRadius);
+        setFloat(p, "uNormalOffset", l.normalOffset);
+        setInt(p, "uShadowsOn", l.shadows ? 1 : 0);
+        setInt(p, "uShadowMap", 0);
+    }
+
+    static double msSince(std::chrono::steady_clock::time_point t0) {
+        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    }
+
+    Image render(const FrameScene& scene, const Camera& camera) {
+        auto t0 = std::chrono::steady_clock::now();
+        context.makeCurrent();
+        const int w = settings.width, h = settings.height, factor = settings.supersample;
+        ensureTargets(w, h, factor);
+
+        // Scene bounds (meshes only) and the upload of positions and normals.
+        Box3 bounds;
+        while (meshes.size() < scene.meshes.size()) meshes.emplace_back();
+        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+            for (const Vec3& p : scene.meshes[i].positions) bounds.extend(p);
+            uploadMesh(meshes[i], scene.meshes[i]);
+        }
+        for (std::size_t i = scene.meshes.size(); i < meshes.size(); ++i) meshes[i].indexCount = 0;
+        timings.prepareMs = msSince(t0);
+        t0 = std::chrono::steady_clock::now();
+        const bool haveGeometry = !bounds.empty();
+        const Vec3 centre = haveGeometry ? bounds.centre() : Vec3::Zero();
+        Real radius = haveGeometry ? 0.5 * bounds.size().norm() : 1.0;
+        if (!(radius > 0)) radius = 1e-3;
+
+        // Lights fixed relative to the camera's azimuth (a classic turntable: the object turns
+        // under studio lights): key above front-left, fill low front-right, rim behind.
+        const Vec3 forward = (camera.target - camera.eye).normalized();
+        Vec3 backH(-forward.x(), 0, -forward.z());
+        if (backH.norm() < 1e-9) backH = Vec3(0, 0, 1);
+        backH.normalize();
+        const Vec3 rightH = Vec3::UnitY().cross(backH).normalized();
+        Lights lights;
+        lights.keyDir = (-0.55 * rightH + 1.0 * Vec3::UnitY() + 0.65 * backH).normalized();
+        lights.fillDir = (0.9 * rightH + 0.25 * Vec3::UnitY() + 0.6 * backH).normalized();
+        lights.rimDir = (0.35 * rightH + 0.7 * Vec3::UnitY() - 1.0 * backH).normalized();
+
+        // Ground: a quad under the lowest point, fading out radially.
+        const Real groundY = haveGeometry ? bounds.min.y() : 0.0;
+        const Real fadeInner = 1.2 * radius, fadeOuter = 4.0 * radius;
+        const bool drawGround = scene.groundPlane && haveGeometry;
+
+        // Near and far planes from the scene (the ground included).
+        const Mat4 viewFromWorld = camera.viewFromWorld();
+        Real nearZ = camera.nearClip, farZ = camera.farClip;
+        if (nearZ <= 0 || farZ <= 0) {
+            Real minDepth = std::numeric_limits<Real>::infinity(), maxDepth = 0;
+            auto depthOf = [&](const Vec3& p) { return -(viewFromWorld * p.homogeneous()).z(); };
+            if (haveGeometry) {
+                for (int c = 0; c < 8; ++c) {
+                    const Vec3 corner((c & 1) ? bounds.max.x() : bounds.min.x(),
+                                      (c & 2) ? bounds.max.y() : bounds.min.y(),
+                                      (c & 4) ? bounds.max.z() : bounds.min.z());
+                    const Real d = depthOf(corner);
+                    minDepth = std::min(minDepth, d);
+                    maxDepth = std::max(maxDepth, d);
+                }
+            }
+            if (drawGround) {
+                for (int c = 0; c < 4; ++c) {
+                    const Vec3 corner(centre.x() + ((c & 1) ? fadeOuter : -fadeOuter), groundY,
+                                      centre.z() + ((c & 2) ? fadeOuter : -fadeOuter));
+                    maxDepth = std::max(maxDepth, depthOf(corner));
+                }
+            }
+            if (farZ <= 0) farZ = std::max(maxDepth * 1.05, 1e-3);
+            if (nearZ <= 0) nearZ = std::max(0.5 * minDepth, 1e-3 * farZ);
+            if (!(nearZ < farZ)) nearZ = 1e-3 * farZ;
+        }
+        const Real aspect = static_cast<Real>(w) / h;
+        const Mat4 clipFromWorld = camera.clipFromView(aspect, nearZ, farZ) * viewFromWorld;
+
+        glDisable(GL_BLEND);
+        glDisable(GL_CULL_FACE);
+        glDisable(GL_SCISSOR_TEST);
+
+        // 1. Shadow map from the key light: orthographic over the bounding sphere.
+        if (haveGeometry) {
+            Camera light;
+            light.eye = centre + 2.0 * radius * lights.keyDir;
+            light.target = centre;
+            light.up = std::abs(lights.keyDir.y()) > 0.99 ? Vec3::UnitZ() : Vec3::UnitY();
+            const Mat4 lightClipFromWorld =
+                orthographic(-radius, radius, -radius, radius, 0.0, 4.0 * radius) * light.viewFromWorld();
+            Mat4 bias = Mat4::Identity() * 0.5;
+            bias(3, 3) = 1;
+            bias.block<3, 1>(0, 3) = Vec3::Constant(0.5);
+            lights.shadowFromWorld = bias * lightClipFromWorld;
+            lights.shadows = true;
+            const Real texelWorld = 2.0 * radius / kShadowMapSize;
+            lights.shadowRadius = 3.0 / kShadowMapSize;  // ~ a 6-texel wide penumbra
+            lights.normalOffset = 1.5 * texelWorld;
+
+            glBindFramebuffer(GL_FRAMEBUFFER, shadowFbo);
+            glViewport(0, 0, kShadowMapSize, kShadowMapSize);
+            glEnable(GL_DEPTH_TEST);
+            glDepthFunc(GL_LESS);
+            glDepthMask(GL_TRUE);
+            glClearDepth(1.0);
+            glClear(GL_DEPTH_BUFFER_BIT);
+            glEnable(GL_POLYGON_OFFSET_FILL);
+            glPolygonOffset(2.0f, 4.0f);
+            glUseProgram(shadowProgram.id());
+            setMat4(shadowProgram, "uLightClipFromWorld", lightClipFromWorld);
+            drawMeshes(scene);
+            glDisable(GL_POLYGON_OFFSET_FILL);
+        }
+
+        // 2. The scene at n x n resolution: premultiplied linear colour, alpha = coverage.
+        glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
+        glViewport(0, 0, w * factor, h * factor);
+        glClearColor(0, 0, 0, 0);
+        glClearDepth(1.0);
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_LESS);
+        glDepthMask(GL_TRUE);
+        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        glActiveTexture(GL_TEXTURE0);
+        glBindTexture(GL_TEXTURE_2D, shadowDepth);
+
+        if (drawGround) {
+            // Where shadows can fall: the bounding sphere projected along the key light onto
+            // the ground, an ellipse whose bounding box is the centre cell (plus the PCF reach).
+            const Vec3& k = lights.keyDir;
+            const Vec3 shadowCentre = centre - k * ((centre.y() - groundY) / k.y());
+            const Real reach = 1.05 * radius + 4.0 * lights.shadowRadius * radius;
+            const Real halfX = reach * std::sqrt(1 + (k.x() / k.y()) * (k.x() / k.y()));
+            const Real halfZ = reach * std::sqrt(1 + (k.z() / k.y()) * (k.z() / k.y()));
+            const Real outer[4] = {centre.x() - fadeOuter, centre.x() + fadeOuter, centre.z() - fadeOuter,
+                                   centre.z() + fadeOuter};
+            auto clampX = [&](Real v) { return std::clamp(v, outer[0], outer[1]); };
+            auto clampZ = [&](Real v) { return std::clamp(v, outer[2], outer[3]); };
+            const Real xs[4] = {outer[0], clampX(shadowCentre.x() - halfX), clampX(shadowCentre.x() + halfX), outer[1]};
+            const Real zs[4] = {outer[2], clampZ(shadowCentre.z() - halfZ), clampZ(shadowCentre.z() + halfZ), outer[3]};
+            float grid[16 * 3];
+            for (int j = 0; j < 4; ++j)
+                for (int i = 0; i < 4; ++i) {
+                    float* v = grid + (j * 4 + i) * 3;
+                    v[0] = static_cast<float>(xs[i]);
+                    v[1] = static_cast<float>(groundY);
+                    v[2] = static_cast<float>(zs[j]);
+                }
+            glBindBuffer(GL_ARRAY_BUFFER, groundVbo);
+            glBufferSubData(GL_ARRAY_BUFFER, 0, sizeof grid, grid);
+            glBindVertexArray(groundVao);
+            for (const ShaderProgram* program : {&groundPlainProgram, &groundProgram}) {
+                const ShaderProgram& p = *program;
+                glUseProgram(p.id());
+                setMat4(p, "uClipFromWorld", clipFromWorld);
+                setLighting(p, lights);
+                setVec3(p, "uGroundCentre", centre);
+                setFloat(p, "uFadeInner", fadeInner);
+                setFloat(p, "uFadeOuter", fadeOuter);
+                setVec3(p, "uGroundAlbedo", Vec3::Constant(0.40));
+                setInt(p, "uCatcher", settings.transparentBackground ? 1 : 0);
+                if (program == &groundPlainProgram) {
+                    glDrawElements(GL_TRIANGLES, kGroundOuterIndices, GL_UNSIGNED_INT, nullptr);
+                } else {
+                    glDrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT,
+                                   reinterpret_cast<const void*>(kGroundOuterIndices * sizeof(unsigned)));
+                }
+            }
+            glBindVertexArray(0);
+        }
+
+        glUseProgram(meshProgram.id());
+        setMat4(meshProgram, "uClipFromWorld", clipFromWorld);
+        setLighting(meshProgram, lights);
+        setVec3(meshProgram, "uEye", camera.eye);
+        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+            if (meshes[i].indexCount == 0) continue;
+            const Vec3 albedo = scene.meshes[i].colour.cwiseMax(0.0).cwiseMin(1.0);
+            setVec3(meshProgram, "uAlbedo", albedo);
+            glBindVertexArray(meshes[i].vao);
+            glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+        }
+        glBindVertexArray(0);
+
+        // 3. Box downsample, composite or un-premultiply, sRGB encode -> RGBA16.
+        glBindFramebuffer(GL_FRAMEBUFFER, outFbo);
+        glViewport(0, 0, w, h);
+        glDisable(GL_DEPTH_TEST);
+        glUseProgram(resolveProgram.id());
+        glBindTexture(GL_TEXTURE_2D, sceneColour);
+        setInt(resolveProgram, "uColour", 0);
+        setInt(resolveProgram, "uFactor", factor);
+        setInt(resolveProgram, "uTransparent", settings.transparentBackground ? 1 : 0);
+        setVec3(resolveProgram, "uBackground", settings.background);
+        // The background encoded exactly on the CPU, as a value that converts back to the same
+        // 16-bit code: background pixels are exactly round(65535 * srgb(background)).
+        float enc[4];
+        for (int c = 0; c < 3; ++c)
+            enc[c] = static_cast<float>(std::lround(65535.0 * encodeSrgb(settings.background[c])) / 65535.0);
+        enc[3] = 1.0f;
+        glUniform4fv(resolveProgram.uniform("uBackgroundEncoded"), 1, enc);
+        glBindVertexArray(emptyVao);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glBindVertexArray(0);
+
+        glFinish();
+        timings.drawMs = msSince(t0);
+        t0 = std::chrono::steady_clock::now();
+
+        // 4. Read back (bottom row first) and flip into the top-down Image.
+        readback.resize(static_cast<std::size_t>(w) * h * 4);
+        glPixelStorei(GL_PACK_ALIGNMENT, 1);
+        glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_SHORT, readback.data());
+        checkGlError("rendering a frame");
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+
+        Image image(w, h);
+        const std::size_t rowSamples = static_cast<std::size_t>(w) * 4;
+        for (int y = 0; y < h; ++y) {
+            std::memcpy(image.rgba.data() + rowSamples * static_cast<std::size_t>(y),
+                        readback.data() + rowSamples * static_cast<std::size_t>(h - 1 - y),
+                        rowSamples * sizeof(std::uint16_t));
+        }
+        timings.readbackMs = msSince(t0);
+        return image;
+    }
+};
+
+Renderer::Renderer(const RenderSettings& settings) {
+    const std::vector<std::string> problems = settings.validate();
+    if (!problems.empty()) {
+        std::string all;
+        for (const std::string& p : problems) all += (all.empty() ? "" : "; ") + p;
+        throw InputError("render settings", "", all);
+    }
+    mImpl = std::make_unique<Impl>(settings);
+}
+
+Renderer::~Renderer() = default;
+
+Image Renderer::render(const FrameScene& scene, const Camera& camera) { return mImpl->render(scene, camera); }
+
+std::string Renderer::glRenderer() const { return mImpl->context.description(); }
+
+Renderer::Timings Renderer::lastTimings() const { return mImpl->timings; }
+
+}  // namespace dgv

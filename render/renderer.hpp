@@ -56,6 +56,14 @@ public:
     /// GL_RENDERER and GL_VERSION, for logs and PNG provenance.
     std::string glRenderer() const;
 
+    /// Wall-clock split of the last render() call, in milliseconds (for benchmarks and logs):
+    /// prepare = normals and uploads on the CPU, draw = GL passes until glFinish, readback =
+    /// glReadPixels and the row flip.
+    struct Timings {
+        double prepareMs = 0, drawMs = 0, readbackMs = 0;
+    };
+    Timings lastTimings() const;
+
 private:
     struct Impl;
     std::unique_ptr<Impl> mImpl;

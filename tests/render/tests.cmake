@@ -1,1 +1,4 @@
-list(APPEND DGV_TEST_SOURCES)
+list(APPEND DGV_TEST_SOURCES
+  ${CMAKE_CURRENT_LIST_DIR}/test_camera.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_renderer.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_image_compare.cpp)
