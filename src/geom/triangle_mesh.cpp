@@ -1,1 +1,119 @@
-// placeholder: implemented in this session
+#include "geom/triangle_mesh.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+
+namespace dgv {
+
+namespace {
+
+/// One directed edge of a triangle, keyed by its undirected vertex pair.
+struct EdgeUse {
+    int lo, hi;
+    int dir;  ///< +1 when the triangle walks lo -> hi, -1 when hi -> lo
+    bool operator<(const EdgeUse& o) const {
+        if (lo != o.lo) return lo < o.lo;
+        if (hi != o.hi) return hi < o.hi;
+        return dir < o.dir;
+    }
+};
+
+}  // namespace
+
+std::size_t dropDegenerateTriangles(TriangleMesh& mesh) {
+    const std::size_t before = mesh.triangles.size();
+    auto degenerate = [&](const std::array<int, 3>& t) {
+        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
+        const Vec3& a = mesh.vertices[static_cast<std::size_t>(t[0])];
+        const Vec3& b = mesh.vertices[static_cast<std::size_t>(t[1])];
+        const Vec3& c = mesh.vertices[static_cast<std::size_t>(t[2])];
+        const Vec3 e0 = b - a, e1 = c - b, e2 = a - c;
+        const Real longest2 =
+            std::max({e0.squaredNorm(), e1.squaredNorm(), e2.squaredNorm()});
+        return !(e0.cross(-e2).norm() > 1e-14 * longest2);
+    };
+    mesh.triangles.erase(std::remove_if(mesh.triangles.begin(), mesh.triangles.end(), degenerate),
+                         mesh.triangles.end());
+    return before - mesh.triangles.size();
+}
+
+Box3 meshBounds(const TriangleMesh& mesh) {
+    Box3 box;
+    for (const auto& t : mesh.triangles)
+        for (int v : t) box.extend(mesh.vertices[static_cast<std::size_t>(v)]);
+    return box;
+}
+
+Real meshSignedVolume(const TriangleMesh& mesh) {
+    Real sum = 0;
+    for (const auto& t : mesh.triangles) {
+        const Vec3& a = mesh.vertices[static_cast<std::size_t>(t[0])];
+        const Vec3& b = mesh.vertices[static_cast<std::size_t>(t[1])];
+        const Vec3& c = mesh.vertices[static_cast<std::size_t>(t[2])];
+        sum += a.dot(b.cross(c));
+    }
+    return sum / 6;
+}
+
+MeshReport analyseMesh(const TriangleMesh& mesh) {
+    MeshReport r;
+    r.vertices = mesh.vertices.size();
+    r.triangles = mesh.triangles.size();
+    r.bounds = meshBounds(mesh);
+    r.signedVolume = meshSignedVolume(mesh);
+
+    std::vector<EdgeUse> uses;
+    uses.reserve(mesh.triangles.size() * 3);
+    for (const auto& t : mesh.triangles) {
+        for (int k = 0; k < 3; ++k) {
+            const int a = t[k], b = t[(k + 1) % 3];
+            if (a == b) continue;
+            uses.push_back(a < b ? EdgeUse{a, b, +1} : EdgeUse{b, a, -1});
+        }
+    }
+    std::sort(uses.begin(), uses.end());
+
+    bool consistent = true;
+    for (std::size_t i = 0; i < uses.size();) {
+        std::size_t j = i;
+        while (j < uses.size() && uses[j].lo == uses[i].lo && uses[j].hi == uses[i].hi) ++j;
+        const std::size_t n = j - i;
+        if (n == 1) ++r.boundaryEdges;
+        if (n >= 3) ++r.nonManifoldEdges;
+        if (n == 2 && uses[i].dir == uses[i + 1].dir) consistent = false;
+        i = j;
+    }
+    const bool any = !mesh.triangles.empty();
+    r.manifold = any && r.nonManifoldEdges == 0 && consistent;
+    r.closed = any && r.boundaryEdges == 0 && r.nonManifoldEdges == 0;
+    return r;
+}
+
+void transformMesh(TriangleMesh& mesh, const Mat3& linear, const Vec3& translation) {
+    for (Vec3& v : mesh.vertices) v = linear * v + translation;
+    if (linear.determinant() < 0)
+        for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+}
+
+std::vector<Vec3> vertexNormals(const TriangleMesh& mesh) {
+    std::vector<Vec3> normals(mesh.vertices.size(), Vec3::Zero());
+    for (const auto& t : mesh.triangles) {
+        const Vec3& a = mesh.vertices[static_cast<std::size_t>(t[0])];
+        const Vec3& b = mesh.vertices[static_cast<std::size_t>(t[1])];
+        const Vec3& c = mesh.vertices[static_cast<std::size_t>(t[2])];
+        const Vec3 n = (b - a).cross(c - a);  // |n| = twice the area: area weighting
+        for (int v : t) normals[static_cast<std::size_t>(v)] += n;
+    }
+    for (Vec3& n : normals) {
+        const Real len = n.norm();
+        if (len > 0) n /= len;
+    }
+    return normals;
+}
+
+}  // namespace dgv

@@ -43,14 +43,17 @@ Box3 meshBounds(const TriangleMesh& mesh);
 /// Signed volume by the divergence theorem: sum over triangles of det(a, b, c) / 6.
 Real meshSignedVolume(const TriangleMesh& mesh);
 
-/// Edge topology, bounds and volume in one pass (degenerateDropped is left at 0).
+/// Edge topology, bounds and volume in one pass (degenerateDropped is left at 0). Edges are
+/// vertex-index pairs (vertices at the same position but with different indices are different
+/// vertices). An empty mesh is neither closed nor manifold.
 MeshReport analyseMesh(const TriangleMesh& mesh);
 
 /// Applies x -> A x + t to every vertex. A with det < 0 also flips every triangle's winding so
 /// that normals stay outward.
 void transformMesh(TriangleMesh& mesh, const Mat3& linear, const Vec3& translation);
 
-/// Per-vertex normals: area-weighted sum of incident face normals, normalised.
+/// Per-vertex normals: area-weighted sum of incident face normals, normalised; zero for a
+/// vertex no (non-degenerate) triangle uses.
 std::vector<Vec3> vertexNormals(const TriangleMesh& mesh);
 
 }  // namespace dgv

@@ -3,7 +3,9 @@
 /// @brief Voxel parametrisation (seed section 2): the material points of a mesh are the lattice
 /// points whose voxel centre is inside it. Inside means generalised winding number w(x) >= 0.5
 /// (Jacobson et al. 2013), which is exact (0 or 1) for closed meshes and degrades gracefully on
-/// small holes, self-intersections and non-manifold input. See docs/math.md, "Voxelisation".
+/// small holes, self-intersections and non-manifold input. See docs/math-voxelise.md for the
+/// algorithm (exact signed ray-crossing counts, the winding number only near holes), the lattice
+/// placement and the guarantees.
 
 #include "base/types.hpp"
 #include "geom/lattice.hpp"
@@ -16,7 +18,9 @@ namespace dgv {
 
 struct VoxeliseSettings {
     Real voxelSize = 0;          ///< h in world units; or 0 to derive it from `resolution`
-    int resolution = 0;          ///< lattice points along the longest side of the bounds
+    int resolution = 0;          ///< lattice points along the longest side of the bounds, padding
+                                 ///< excluded (1..2048): h = longest side / resolution; or 0 to
+                                 ///< use `voxelSize`
     Real windingThreshold = 0.5; ///< inside when w >= threshold
     /// Memory the lattice and its geometric state may take; 0 means 3/4 of physical memory.
     std::size_t memoryBudgetBytes = 0;
@@ -44,12 +48,27 @@ std::size_t estimateLatticeBytes(Index gridCells, Index points);
 
 /// Voxelises `mesh`. Throws InputError (input empty, where "voxel_size"/"resolution") when the
 /// settings are invalid or the lattice would not fit the memory budget (message gives the
-/// estimate), before allocating anything large.
+/// estimate), before allocating anything large; InputError (where empty) for a mesh with no
+/// triangles, an out-of-range index or a non-finite vertex.
+///
+/// Placement: along each axis n = ceil(extent / h) voxels (at least 1) are centred on the mesh
+/// bounds, and one empty point of padding is added on each side, so dims = n + 2 and
+/// originWorld = bounds.centre() - h (dims - 1) / 2; point u sits at originWorld + h u.
+/// The result is identical for any thread count.
 Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings,
                  VoxeliseReport* report = nullptr);
 
-/// Generalised winding number of the mesh at each query point (exact sum of solid angles / 4pi,
-/// accelerated; accuracy ~1e-3 far away, exact near the surface). For tests and diagnostics.
-std::vector<Real> windingNumbers(const TriangleMesh& mesh, const std::vector<Vec3>& queries);
+/// How windingNumbers() evaluates the sum of solid angles.
+enum class WindingEvaluation {
+    Accelerated,  ///< tree with a dipole far field (Barill et al. 2018): exact near the surface,
+                  ///< ~1e-4 absolute error far from it; O(log T) per query
+    Exact,        ///< direct sum over all triangles: rounding error only; O(T) per query
+};
+
+/// Generalised winding number of the mesh at each query point: the sum of the triangles' signed
+/// solid angles / 4pi (1 inside and 0 outside a closed outward mesh, fractional near holes).
+/// For tests and diagnostics; deterministic for any thread count.
+std::vector<Real> windingNumbers(const TriangleMesh& mesh, const std::vector<Vec3>& queries,
+                                 WindingEvaluation evaluation = WindingEvaluation::Accelerated);
 
 }  // namespace dgv

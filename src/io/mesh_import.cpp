@@ -1,1 +1,327 @@
-// placeholder: implemented in this session
+#include "io/mesh_import.hpp"
+
+#include "base/errors.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include <assimp/DefaultLogger.hpp>
+#include <assimp/Importer.hpp>
+#include <assimp/config.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <limits>
+#include <numeric>
+#include <set>
+#include <sstream>
+#include <system_error>
+
+namespace dgv {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Component-wise std::isfinite (Eigen's allFinite() computes x - x, which raises FE_INVALID
+/// on infinities and trips the tests' floating-point traps).
+template <typename M>
+bool finite(const M& m) {
+    for (Index i = 0; i < m.size(); ++i)
+        if (!std::isfinite(m.data()[i])) return false;
+    return true;
+}
+
+/// Node hierarchies deeper than this are refused (a cycle, or a file built to exhaust the stack).
+constexpr int kMaxNodeDepth = 512;
+/// Instanced meshes may not expand beyond this many vertices (indices are int).
+constexpr std::size_t kMaxVertices = static_cast<std::size_t>(std::numeric_limits<int>::max());
+
+std::string str(const aiString& s) { return std::string(s.C_Str()); }
+
+/// The checks made before assimp sees the file, so that its message is never the first word
+/// on a missing path.
+void checkReadable(const fs::path& path) {
+    const std::string p = path.string();
+    std::error_code ec;
+    const fs::file_status st = fs::status(path, ec);
+    if (ec || !fs::exists(st)) throw InputError(p, "", "file not found");
+    if (fs::is_directory(st)) throw InputError(p, "", "is a directory, expected a mesh file");
+    if (!fs::is_regular_file(st)) throw InputError(p, "", "is not a regular file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(p, "", "cannot be opened for reading (permission denied?)");
+    char byte;
+    if (!in.get(byte)) throw InputError(p, "", "the file is empty");
+}
+
+/// Object File Format headers declare their vertex and face counts, and assimp 5.2 reserves
+/// memory for them before reading any: a 300-byte file declaring 10^12 vertices takes tens of
+/// GiB and minutes. Such headers are refused here (each vertex takes at least 6 bytes of text).
+void checkOffHeader(const fs::path& path) {
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+    std::ifstream in(path, std::ios::binary);
+    std::string head(4096, '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    std::istringstream text(head);
+    std::vector<std::string> tokens;
+    std::string line;
+    while (tokens.size() < 4 && std::getline(text, line)) {
+        line = line.substr(0, line.find('#'));
+        std::istringstream words(line);
+        std::string w;
+        while (tokens.size() < 4 && words >> w) tokens.push_back(w);
+    }
+    const bool offMagic = !tokens.empty() && tokens[0].size() >= 3 && tokens[0].size() <= 6 &&
+                          tokens[0].compare(tokens[0].size() - 3, 3, "OFF") == 0;
+    if (!offMagic && ext != ".off") return;
+    const std::size_t size = static_cast<std::size_t>(fs::file_size(path));
+    for (std::size_t i = offMagic ? 1 : 0, n = 0; i < tokens.size() && n < 2; ++i, ++n) {
+        const std::string& w = tokens[i];
+        if (w.empty() || w.find_first_not_of("0123456789") != std::string::npos) return;
+        if (w.size() > 15 || std::stoull(w) > size / 6)
+            throw InputError(path.string(), "", "the OFF header declares " + w + (n == 0 ? " vertices" : " faces") +
+                                                    ", more than a " + std::to_string(size) +
+                                                    "-byte file can hold");
+    }
+}
+
+struct Collector {
+    const aiScene* scene = nullptr;
+    const std::string& path;
+    const std::string& wanted;  ///< empty: everything
+    TriangleMesh mesh;
+    MeshImportReport report;
+    std::size_t meshesSelected = 0;  ///< with or without triangles
+
+    Collector(const aiScene* s, const std::string& p, const std::string& w)
+        : scene(s), path(p), wanted(w) {}
+
+    void addMesh(const aiMesh* m, const Mat4& worldFromMesh) {
+        const std::string name = str(m->mName).empty() ? "<unnamed>" : str(m->mName);
+        std::size_t triangles = 0;
+        for (unsigned f = 0; f < m->mNumFaces; ++f) {
+            const aiFace& face = m->mFaces[f];
+            if (face.mNumIndices == 3 && face.mIndices) ++triangles;
+            else ++report.nonTriangleFaces;
+        }
+        ++meshesSelected;
+        if (triangles == 0) return;
+        ++report.meshesMerged;
+        if (!m->mVertices)
+            throw InputError(path, "", "mesh '" + name + "' has faces but no vertex positions");
+        if (mesh.vertices.size() + m->mNumVertices > kMaxVertices)
+            throw InputError(path, "", "more than 2^31 vertices after instancing");
+
+        const Mat3 linear = worldFromMesh.topLeftCorner<3, 3>();
+        const Vec3 translation = worldFromMesh.topRightCorner<3, 1>();
+        const bool flip = linear.determinant() < 0;
+        const int base = static_cast<int>(mesh.vertices.size());
+        for (unsigned v = 0; v < m->mNumVertices; ++v) {
+            const aiVector3D& q = m->mVertices[v];
+            const Vec3 local(q.x, q.y, q.z);
+            if (!finite(local))
+                throw InputError(path, "", "mesh '" + name + "' vertex " + std::to_string(v) +
+                                               " has a non-finite coordinate");
+            const Vec3 world = linear * local + translation;
+            if (!finite(world))
+                throw InputError(path, "", "mesh '" + name + "' vertex " + std::to_string(v) +
+                                               " is not finite after the node transforms");
+            mesh.vertices.push_back(world);
+        }
+        for (unsigned f = 0; f < m->mNumFaces; ++f) {
+            const aiFace& face = m->mFaces[f];
+            if (face.mNumIndices != 3 || !face.mIndices) continue;
+            std::array<int, 3> t{};
+            for (int k = 0; k < 3; ++k) {
+                const unsigned idx = face.mIndices[k];
+                if (idx >= m->mNumVertices)
+                    throw InputError(path, "",
+                                     "mesh '" + name + "' face " + std::to_string(f) +
+                                         " refers to vertex " + std::to_string(idx) +
+                                         ", out of range (the mesh has " +
+                                         std::to_string(m->mNumVertices) + " vertices)");
+                t[static_cast<std::size_t>(k)] = base + static_cast<int>(idx);
+            }
+            if (flip) std::swap(t[1], t[2]);
+            mesh.triangles.push_back(t);
+        }
+    }
+
+    void walk(const aiNode* node, const Mat4& parent, bool selected, int depth) {
+        if (!node) return;
+        if (depth > kMaxNodeDepth)
+            throw InputError(path, "", "the node hierarchy is deeper than " +
+                                           std::to_string(kMaxNodeDepth) + " levels (a cycle?)");
+        const aiMatrix4x4& a = node->mTransformation;
+        Mat4 local;
+        local << a.a1, a.a2, a.a3, a.a4, a.b1, a.b2, a.b3, a.b4, a.c1, a.c2, a.c3, a.c4, a.d1, a.d2,
+            a.d3, a.d4;
+        if (!finite(local))
+            throw InputError(path, "", "node '" + str(node->mName) + "' has a non-finite transform");
+        const Mat4 world = parent * local;
+        const bool nodeSelected = selected || (!wanted.empty() && str(node->mName) == wanted);
+        for (unsigned i = 0; i < node->mNumMeshes; ++i) {
+            const unsigned mi = node->mMeshes ? node->mMeshes[i] : scene->mNumMeshes;
+            if (mi >= scene->mNumMeshes || !scene->mMeshes[mi])
+                throw InputError(path, "", "node '" + str(node->mName) +
+                                               "' refers to a mesh that does not exist");
+            const aiMesh* m = scene->mMeshes[mi];
+            if (wanted.empty() || nodeSelected || str(m->mName) == wanted) addMesh(m, world);
+        }
+        if (node->mNumChildren > 0 && !node->mChildren) return;
+        for (unsigned i = 0; i < node->mNumChildren; ++i)
+            walk(node->mChildren[i], world, nodeSelected, depth + 1);
+    }
+
+    void collectNames(const aiNode* node, std::set<std::string>& names, int depth) const {
+        if (!node || depth > kMaxNodeDepth) return;
+        if (node->mName.length > 0) names.insert(str(node->mName));
+        if (!node->mChildren) return;
+        for (unsigned i = 0; i < node->mNumChildren; ++i)
+            collectNames(node->mChildren[i], names, depth + 1);
+    }
+
+    std::string availableNames() const {
+        std::set<std::string> names;
+        for (unsigned i = 0; i < scene->mNumMeshes; ++i)
+            if (scene->mMeshes[i] && scene->mMeshes[i]->mName.length > 0)
+                names.insert(str(scene->mMeshes[i]->mName));
+        collectNames(scene->mRootNode, names, 0);
+        if (names.empty()) return "the file names no meshes or nodes";
+        std::string list;
+        int shown = 0;
+        for (const std::string& n : names) {
+            if (shown == 30) {
+                list += ", ... (" + std::to_string(names.size() - 30) + " more)";
+                break;
+            }
+            list += (shown++ ? ", '" : "'") + n + "'";
+        }
+        return "available: " + list;
+    }
+};
+
+/// Merges vertices at exactly the same position (after the node transforms) and drops those no
+/// triangle uses, so that a mesh split into pieces (STL, per-face normals) is closed again.
+void weldByPosition(TriangleMesh& mesh) {
+    const std::size_t n = mesh.vertices.size();
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    auto less = [&](int a, int b) {
+        const Vec3& p = mesh.vertices[static_cast<std::size_t>(a)];
+        const Vec3& q = mesh.vertices[static_cast<std::size_t>(b)];
+        if (p.x() != q.x()) return p.x() < q.x();
+        if (p.y() != q.y()) return p.y() < q.y();
+        if (p.z() != q.z()) return p.z() < q.z();
+        return a < b;
+    };
+    std::sort(order.begin(), order.end(), less);
+    std::vector<int> rep(n);  // representative (first in sorted order) of each position
+    for (std::size_t i = 0; i < n; ++i) {
+        const int v = order[i];
+        rep[static_cast<std::size_t>(v)] =
+            (i > 0 && mesh.vertices[static_cast<std::size_t>(order[i - 1])] ==
+                          mesh.vertices[static_cast<std::size_t>(v)])
+                ? rep[static_cast<std::size_t>(order[i - 1])]
+                : v;
+    }
+    // New ids in order of first use by the triangles: deterministic and cache-friendly.
+    std::vector<int> newId(n, -1);
+    std::vector<Vec3> vertices;
+    for (auto& t : mesh.triangles) {
+        for (int& v : t) {
+            const int r = rep[static_cast<std::size_t>(v)];
+            int& id = newId[static_cast<std::size_t>(r)];
+            if (id < 0) {
+                id = static_cast<int>(vertices.size());
+                vertices.push_back(mesh.vertices[static_cast<std::size_t>(r)]);
+            }
+            v = id;
+        }
+    }
+    mesh.vertices = std::move(vertices);
+}
+
+}  // namespace
+
+TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
+                        MeshImportReport* report) {
+    const std::string p = path.string();
+    checkReadable(path);
+    checkOffHeader(path);
+
+    Assimp::DefaultLogger::kill();  // the null logger: assimp prints nothing
+    Assimp::Importer importer;
+    // Positions are all dgv uses: drop the rest before post-processing so that vertices that
+    // differ only in normals or UVs are joined, and less memory is spent.
+    importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
+                                aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS |
+                                    aiComponent_COLORS | aiComponent_TEXCOORDS |
+                                    aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
+                                    aiComponent_TEXTURES | aiComponent_LIGHTS |
+                                    aiComponent_CAMERAS);
+    // Read without post-processing, drop what dgv ignores (lights and cameras without nodes
+    // would fail validation), then validate and triangulate.
+    const unsigned flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate |
+                           aiProcess_JoinIdenticalVertices | aiProcess_SortByPType;
+    const aiScene* scene = nullptr;
+    try {
+        scene = importer.ReadFile(p, 0);
+        if (scene) scene = importer.ApplyPostProcessing(aiProcess_RemoveComponent);
+        if (scene) scene = importer.ApplyPostProcessing(flags);
+    } catch (const std::exception& e) {
+        throw InputError(p, "", std::string("assimp could not read it: ") + e.what());
+    } catch (...) {
+        throw InputError(p, "", "assimp could not read it: unknown error");
+    }
+    if (!scene) {
+        std::string why = importer.GetErrorString();
+        std::replace(why.begin(), why.end(), '\n', ' ');
+        while (!why.empty() && why.back() == ' ') why.pop_back();
+        // Validation's words for a scene without faces, in dgv's.
+        if (why.find("contains no faces") != std::string::npos ||
+            why.find("has no faces") != std::string::npos)
+            throw InputError(p, "", "no triangles (the file holds only points and lines)");
+        if (why.find("mNumMeshes is 0") != std::string::npos)
+            throw InputError(p, "", "no triangles (the file holds no meshes)");
+        throw InputError(p, "", "assimp could not read it: " + (why.empty() ? "unknown error" : why));
+    }
+
+    Collector c(scene, p, options.meshName);
+    if (scene->mRootNode) {
+        c.walk(scene->mRootNode, Mat4::Identity(), false, 0);
+    } else {
+        for (unsigned i = 0; i < scene->mNumMeshes; ++i)
+            if (scene->mMeshes[i] &&
+                (options.meshName.empty() || str(scene->mMeshes[i]->mName) == options.meshName))
+                c.addMesh(scene->mMeshes[i], Mat4::Identity());
+    }
+
+    if (!options.meshName.empty() && c.meshesSelected == 0)
+        throw InputError(p, "", "no mesh or node named '" + options.meshName + "'; " +
+                                    c.availableNames());
+    if (c.mesh.triangles.empty()) {
+        if (c.report.nonTriangleFaces > 0)
+            throw InputError(p, "", "no triangles (the file holds only points and lines)");
+        throw InputError(p, "", "no triangles (the file holds no meshes)");
+    }
+
+    TriangleMesh mesh = std::move(c.mesh);
+    weldByPosition(mesh);
+    const std::size_t before = mesh.triangles.size();
+    c.report.degenerateDropped = dropDegenerateTriangles(mesh);
+    if (mesh.triangles.empty())
+        throw InputError(p, "", "no triangles (all " + std::to_string(before) +
+                                    " triangles are degenerate)");
+    if (report) *report = c.report;
+    return mesh;
+}
+
+}  // namespace dgv

@@ -16,14 +16,20 @@ struct MeshImportOptions {
 };
 
 struct MeshImportReport {
-    std::size_t meshesMerged = 0;
+    std::size_t meshesMerged = 0;       ///< mesh instances (mesh x node) that gave triangles
     std::size_t degenerateDropped = 0;
     std::size_t nonTriangleFaces = 0;   ///< points and lines ignored
 };
 
-/// Imports the file. Throws InputError("<path>", "", what) when the file is missing, unreadable
+/// Imports the file: walks the node tree accumulating transforms (a transform with det < 0 flips
+/// the winding), merges the selected meshes, welds vertices at exactly the same world position
+/// (so STL files and meshes split by normals come out closed), and drops degenerate triangles.
+/// Throws InputError("<path>", "", what) when the file is missing, unreadable
 /// or a folder, assimp cannot read it, a coordinate is NaN or infinite, an index is out of
-/// range, or no triangle remains; never crashes or hangs on broken files.
+/// range, or no triangle remains; never crashes or hangs on broken files. The message is one line,
+/// e.g. "no triangles (the file holds only points and lines)", "mesh 'Cube' vertex 12 has a
+/// non-finite coordinate", "assimp could not read it: <assimp's message>", "no mesh or node named
+/// 'x'; available: 'a', 'b'". Silences assimp's logger.
 TriangleMesh importMesh(const std::filesystem::path& path, const MeshImportOptions& options = {},
                         MeshImportReport* report = nullptr);
 

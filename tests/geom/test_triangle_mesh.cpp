@@ -1,0 +1,110 @@
+// Tests of src/geom/triangle_mesh.hpp: topology report, volume, transforms, normals.
+#include <catch2/catch.hpp>
+
+#include <Eigen/Geometry>
+
+#include "geom/primitives.hpp"
+#include "geom/triangle_mesh.hpp"
+
+#include <cmath>
+
+using namespace dgv;
+
+namespace {
+
+TriangleMesh unitTetra() {
+    TriangleMesh m;
+    m.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+    m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    return m;
+}
+
+}  // namespace
+
+TEST_CASE("triangle_mesh: a tetrahedron is closed and manifold with volume 1/6", "[geom]") {
+    const MeshReport r = analyseMesh(unitTetra());
+    CHECK(r.closed);
+    CHECK(r.manifold);
+    CHECK(r.boundaryEdges == 0);
+    CHECK(r.nonManifoldEdges == 0);
+    CHECK(r.vertices == 4);
+    CHECK(r.triangles == 4);
+    CHECK(std::abs(r.signedVolume - 1.0 / 6) < 1e-15);
+    CHECK(r.bounds.min == Vec3(0, 0, 0));
+    CHECK(r.bounds.max == Vec3(1, 1, 1));
+}
+
+TEST_CASE("triangle_mesh: a removed triangle leaves three boundary edges", "[geom]") {
+    TriangleMesh m = unitTetra();
+    m.triangles.pop_back();
+    const MeshReport r = analyseMesh(m);
+    CHECK_FALSE(r.closed);
+    CHECK(r.manifold);
+    CHECK(r.boundaryEdges == 3);
+}
+
+TEST_CASE("triangle_mesh: one flipped triangle is closed but not manifold", "[geom]") {
+    TriangleMesh m = unitTetra();
+    std::swap(m.triangles[3][1], m.triangles[3][2]);
+    const MeshReport r = analyseMesh(m);
+    CHECK(r.closed);
+    CHECK_FALSE(r.manifold);
+}
+
+TEST_CASE("triangle_mesh: three triangles on one edge are non-manifold", "[geom]") {
+    TriangleMesh m = unitTetra();
+    m.vertices.emplace_back(-1, -1, 0.5);
+    m.triangles.push_back({0, 1, 4});
+    const MeshReport r = analyseMesh(m);
+    CHECK(r.nonManifoldEdges == 1);
+    CHECK(r.boundaryEdges == 2);
+    CHECK_FALSE(r.closed);
+    CHECK_FALSE(r.manifold);
+}
+
+TEST_CASE("triangle_mesh: an empty mesh is neither closed nor manifold", "[geom]") {
+    const MeshReport r = analyseMesh(TriangleMesh{});
+    CHECK_FALSE(r.closed);
+    CHECK_FALSE(r.manifold);
+    CHECK(r.bounds.empty());
+    CHECK(meshBounds(TriangleMesh{}).empty());
+}
+
+TEST_CASE("triangle_mesh: degenerate triangles are dropped and counted", "[geom]") {
+    TriangleMesh m = unitTetra();
+    m.vertices.emplace_back(2, 0, 0);  // collinear with 0 and 1
+    m.triangles.push_back({0, 0, 1});  // repeated index
+    m.triangles.push_back({0, 1, 4});  // zero area
+    m.triangles.push_back({1, 2, 2});
+    CHECK(dropDegenerateTriangles(m) == 3);
+    CHECK(m.triangles.size() == 4);
+    CHECK(m.vertices.size() == 5);  // unreferenced vertices are kept
+    CHECK(dropDegenerateTriangles(m) == 0);
+}
+
+TEST_CASE("triangle_mesh: a mirror keeps the volume positive by flipping the winding", "[geom]") {
+    TriangleMesh m = makeSphere(1.0, 32, 16);
+    const Real v0 = meshSignedVolume(m);
+    Mat3 mirror = Vec3(-2, 1, 1).asDiagonal();
+    transformMesh(m, mirror, Vec3(5, 0, 0));
+    CHECK(std::abs(meshSignedVolume(m) - 2 * v0) < 1e-12 * v0);
+    CHECK(analyseMesh(m).manifold);
+    const Box3 b = meshBounds(m);
+    CHECK(std::abs(b.centre().x() - 5) < 1e-12);
+
+    TriangleMesh r = makeSphere(1.0, 32, 16);
+    transformMesh(r, Eigen::AngleAxis<Real>(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix(), Vec3::Zero());
+    CHECK(std::abs(meshSignedVolume(r) - v0) < 1e-12 * v0);
+}
+
+TEST_CASE("triangle_mesh: vertex normals of a sphere point outward", "[geom]") {
+    const TriangleMesh m = makeSphere(2.0, 48, 24);
+    const std::vector<Vec3> n = vertexNormals(m);
+    REQUIRE(n.size() == m.vertices.size());
+    Real worst = 1;
+    for (std::size_t v = 0; v < n.size(); ++v) {
+        CHECK(std::abs(n[v].norm() - 1) < 1e-12);
+        worst = std::min(worst, n[v].dot(m.vertices[v].normalized()));
+    }
+    CHECK(worst > 0.999);
+}
