@@ -3,11 +3,21 @@
 /// @brief A lattice deformer: the imported surface mesh is embedded in the material lattice at
 /// rest and carried by the lattice as it deforms, so renders keep the mesh's detail whatever
 /// the voxel size. Exact for any affine motion of the lattice.
+///
+/// Rule (docs/math.md, "Embedding"): a vertex whose lattice cell (the 8 grid points around
+/// u = (v - originWorld) / h) are all material points is carried trilinearly,
+/// v' = sum_k w_k x(corner_k). Any other vertex (near the surface, or up to a few voxels outside
+/// the lattice) is anchored to its nearest material point q (Euclidean in u; ties: smallest
+/// point id) with offset d = u - u(q) in lattice units, and follows q's frame to second order:
+/// v' = x(q) + sum_a x_a(q) d_a + 1/2 sum_ab x_ab(q) d_a d_b (the quadratic term only when
+/// `secondOrder`). Both rules reproduce any affine motion exactly (x_ab = 0 then).
 
 #include "base/types.hpp"
 #include "geom/geometric_state.hpp"
 #include "geom/lattice.hpp"
 
+#include <array>
+#include <cstddef>
 #include <vector>
 
 namespace dgv {
@@ -20,12 +30,21 @@ struct MeshEmbedding {
     std::vector<std::array<Real, 8>> weights;   ///< sums to 1 when corners[v][0] != kNoPoint
     std::vector<Index> anchor;                  ///< nearest material point (always valid)
     std::vector<Vec3> offset;                   ///< vertex - x(anchor), lattice units, at rest
+    bool secondOrder = true;  ///< anchored vertices add 1/2 x_ab d_a d_b (Taylor, 2nd order)
+
+    std::size_t size() const { return anchor.size(); }
+    /// Whether vertex v is carried trilinearly (else by its anchor's frame).
+    bool trilinear(std::size_t v) const { return corners[v][0] != kNoPoint; }
 };
 
-/// Embeds rest vertices (world units) in the lattice. Requires lat.size() > 0.
+/// Embeds rest vertices (world units) in the lattice, in parallel. Requires lat.size() > 0.
+/// Corners are ordered (di, dj, dk) in {0,1}^3 with index di + 2 dj + 4 dk. The nearest-point
+/// search walks cubic shells outward from the nearest grid point and stops once no closer
+/// point can exist: O(r^3) for a vertex r voxels from the lattice.
 MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVertices);
 
-/// Deformed vertex positions from the current state (positions and tangent frames).
+/// Deformed vertex positions (world units) from the current state (positions, tangent frames
+/// and second derivatives); `vertices` is resized to emb.size(). In parallel.
 void deformVertices(const MeshEmbedding& emb, const GeometricState& state,
                     std::vector<Vec3>& vertices);
 

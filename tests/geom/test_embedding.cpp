@@ -1,0 +1,194 @@
+// Tests of the lattice deformer (src/geom/embedding.hpp).
+#include <catch2/catch.hpp>
+
+#include "geom/embedding.hpp"
+#include "geom/geometric_state.hpp"
+#include "geom/lattice.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <random>
+
+using namespace dgv;
+
+namespace {
+
+/// A ball of lattice points (voxel centres within radius) in world units.
+Lattice ballLattice(Real h) {
+    const Real radius = 1.0;
+    const int n = static_cast<int>(std::ceil(2 * radius / h)) + 3;
+    const Vec3 origin = Vec3::Constant(-h * (n - 1) / 2.0) + Vec3(0.013, -0.021, 0.007);
+    std::vector<unsigned char> mask(static_cast<std::size_t>(n) * n * n, 0);
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i)
+                mask[static_cast<std::size_t>(i + n * (j + n * k))] =
+                    (origin + h * Vec3(i, j, k)).norm() <= radius;
+    return buildLattice(origin, h, Vec3i(n, n, n), mask);
+}
+
+/// Vertices of a sphere surface at radius r (Fibonacci points), plus a few inside.
+std::vector<Vec3> sampleVertices(Real r, int count) {
+    std::vector<Vec3> v;
+    const Real golden = M_PI * (3 - std::sqrt(5.0));
+    for (int i = 0; i < count; ++i) {
+        const Real y = 1 - 2 * (i + 0.5) / count;
+        const Real rr = std::sqrt(1 - y * y);
+        v.push_back(r * Vec3(std::cos(golden * i) * rr, y, std::sin(golden * i) * rr));
+    }
+    for (int i = 0; i < 50; ++i) v.push_back(Vec3(0.01 * i - 0.25, 0.003 * i, -0.005 * i));
+    return v;
+}
+
+Real maxError(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+    REQUIRE(a.size() == b.size());
+    Real e = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) e = std::max(e, (a[i] - b[i]).norm());
+    return e;
+}
+
+}  // namespace
+
+TEST_CASE("embedding: trilinear inside, nearest anchor outside", "[geom]") {
+    const Lattice lat = ballLattice(0.1);
+    // Surface at radius 1.0 and points up to two voxels beyond it.
+    std::vector<Vec3> verts = sampleVertices(1.0, 400);
+    const std::vector<Vec3> outside = sampleVertices(1.2, 200);
+    verts.insert(verts.end(), outside.begin(), outside.end());
+    const MeshEmbedding emb = embedVertices(lat, verts);
+    REQUIRE(emb.size() == verts.size());
+    std::size_t tri = 0, anchored = 0;
+    for (std::size_t v = 0; v < verts.size(); ++v) {
+        const Vec3 u = (verts[v] - lat.originWorld) / lat.spacing;
+        if (emb.trilinear(v)) {
+            ++tri;
+            Real sum = 0;
+            Vec3 at = Vec3::Zero();
+            for (int k = 0; k < 8; ++k) {
+                REQUIRE(emb.corners[v][k] != kNoPoint);
+                REQUIRE(emb.weights[v][k] >= 0);
+                sum += emb.weights[v][k];
+                at += emb.weights[v][k] * lat.coords[emb.corners[v][k]].cast<Real>();
+            }
+            REQUIRE(sum == Approx(1).epsilon(1e-14));
+            REQUIRE((at - u).norm() < 1e-12);
+        } else {
+            ++anchored;
+        }
+        // The anchor is the nearest material point (brute force).
+        Real best = 1e300;
+        for (Index p = 0; p < lat.size(); ++p)
+            best = std::min(best, (lat.coords[p].cast<Real>() - u).squaredNorm());
+        REQUIRE(emb.offset[v].squaredNorm() == Approx(best).epsilon(1e-12));
+        REQUIRE((lat.coords[emb.anchor[v]].cast<Real>() + emb.offset[v] - u).norm() < 1e-12);
+    }
+    REQUIRE(tri > 50);        // the interior points
+    REQUIRE(anchored > 500);  // the surface: most cells straddle it
+}
+
+TEST_CASE("embedding: a vertex far outside the grid still finds its anchor", "[geom]") {
+    const Lattice lat = ballLattice(0.25);
+    const std::vector<Vec3> verts = {Vec3(5, 0, 0), Vec3(-3, -3, 4), Vec3(0, 0, 0)};
+    const MeshEmbedding emb = embedVertices(lat, verts);
+    for (std::size_t v = 0; v < verts.size(); ++v) {
+        Real best = 1e300;
+        Index arg = kNoPoint;
+        for (Index p = 0; p < lat.size(); ++p) {
+            const Real d = (lat.restPosition(p) - verts[v]).squaredNorm();
+            if (d < best) best = d, arg = p;
+        }
+        REQUIRE(emb.anchor[v] == arg);
+    }
+}
+
+TEST_CASE("embedding: rest positions reproduced; affine motions and rotations exact", "[geom]") {
+    const Lattice lat = ballLattice(0.1);
+    std::vector<Vec3> verts = sampleVertices(1.0, 500);
+    const std::vector<Vec3> outside = sampleVertices(1.18, 300);
+    verts.insert(verts.end(), outside.begin(), outside.end());
+    const MeshEmbedding emb = embedVertices(lat, verts);
+    const std::vector<Vec3> rest = restPositions(lat);
+
+    GeometricState st;
+    std::vector<Vec3> moved;
+    SECTION("rest") {
+        computeGeometricState(lat, rest, st);
+        deformVertices(emb, st, moved);
+        REQUIRE(maxError(moved, verts) < 1e-12);
+    }
+    SECTION("affine, and rotation + translation") {
+        std::mt19937_64 rng(4242);
+        std::uniform_real_distribution<Real> d(-0.5, 0.5);
+        std::vector<std::pair<Mat3, Vec3>> motions;
+        for (int t = 0; t < 3; ++t) {
+            Mat3 a = Mat3::Identity();
+            for (int i = 0; i < 9; ++i) a(i / 3, i % 3) += d(rng);
+            if (a.determinant() <= 0.2) continue;
+            motions.push_back({a, Vec3(d(rng), d(rng), d(rng)) * 10});
+        }
+        motions.push_back(
+            {Eigen::AngleAxis<Real>(2.2, Vec3(-1, 3, 1).normalized()).toRotationMatrix(),
+             Vec3(4, -2, 1)});
+        REQUIRE(motions.size() >= 3);
+        for (const auto& [a, b] : motions) {
+            std::vector<Vec3> x(rest.size());
+            for (std::size_t p = 0; p < x.size(); ++p) x[p] = a * rest[p] + b;
+            computeGeometricState(lat, x, st);
+            for (bool second : {true, false}) {
+                MeshEmbedding e = emb;
+                e.secondOrder = second;
+                deformVertices(e, st, moved);
+                std::vector<Vec3> expected(verts.size());
+                for (std::size_t v = 0; v < verts.size(); ++v) expected[v] = a * verts[v] + b;
+                Real eTri = 0, eAnchor = 0;
+                for (std::size_t v = 0; v < verts.size(); ++v) {
+                    Real& e2 = emb.trilinear(v) ? eTri : eAnchor;
+                    e2 = std::max(e2, (moved[v] - expected[v]).norm());
+                }
+                INFO("trilinear error " << eTri << ", anchored error " << eAnchor);
+                REQUIRE(eTri < 1e-12);
+                REQUIRE(eAnchor < 1e-12);
+            }
+        }
+    }
+}
+
+TEST_CASE("embedding: second-order anchors follow a bend better than first-order", "[geom]") {
+    // Bend the ball about the z axis through (0, -4, 0): a smooth non-affine map.
+    const Lattice lat = ballLattice(0.1);
+    const std::vector<Vec3> verts = sampleVertices(1.05, 600);
+    const MeshEmbedding emb = embedVertices(lat, verts);
+    auto bend = [](const Vec3& p) {
+        const Real radius = 4, angle = p.x() / radius, rr = radius + p.y();
+        return Vec3(rr * std::sin(angle), rr * std::cos(angle) - radius, p.z());
+    };
+    const std::vector<Vec3> rest = restPositions(lat);
+    std::vector<Vec3> x(rest.size());
+    for (std::size_t p = 0; p < x.size(); ++p) x[p] = bend(rest[p]);
+    GeometricState st;
+    computeGeometricState(lat, x, st);
+    std::array<Real, 2> rms{}, worst{};
+    for (int second = 0; second < 2; ++second) {
+        MeshEmbedding e = emb;
+        e.secondOrder = second == 1;
+        std::vector<Vec3> moved;
+        deformVertices(e, st, moved);
+        int count = 0;
+        for (std::size_t v = 0; v < verts.size(); ++v) {
+            if (emb.trilinear(v)) continue;
+            const Real d = (moved[v] - bend(verts[v])).norm();
+            rms[second] += d * d;
+            worst[second] = std::max(worst[second], d);
+            ++count;
+        }
+        REQUIRE(count > 300);
+        rms[second] = std::sqrt(rms[second] / count);
+    }
+    INFO("anchored vertices, first order: rms " << rms[0] << " max " << worst[0]
+                                                << "; second order: rms " << rms[1] << " max "
+                                                << worst[1]);
+    REQUIRE(rms[1] < 0.2 * rms[0]);
+    REQUIRE(worst[1] <= worst[0]);
+    REQUIRE(worst[1] < 0.05 * lat.spacing);  // well below a voxel
+}
