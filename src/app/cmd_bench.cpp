@@ -1,1 +1,39 @@
-// placeholder: implemented in this session
+// dgv bench: runs the named benchmarks (app/bench_<name>.cpp), each printing
+// "name: value unit" lines.
+
+#include "app/bench.hpp"
+#include "app/commands.hpp"
+#include "base/errors.hpp"
+
+#include <tbb/global_control.h>
+
+#include <functional>
+#include <iostream>
+#include <map>
+
+namespace dgv::app {
+
+int runBench(const BenchCommandOptions& options) {
+    using Fn = std::function<void(std::ostream&, const bench::BenchOptions&)>;
+    const std::map<std::string, Fn> built = {
+        {"geometry", bench::geometry}, {"voxelise", bench::voxelise}, {"render", bench::render}};
+    const std::map<std::string, std::string> coming = {
+        {"reconstruct", "the solvers"}, {"step", "the dynamics"}, {"gln", "the linking numbers"},
+        {"vdb", "the VDB caches"}};
+    std::vector<std::string> names = options.names;
+    if (names.empty())
+        for (const auto& [name, fn] : built) names.push_back(name);
+    for (const std::string& n : names) {
+        if (built.count(n)) continue;
+        if (coming.count(n)) throw InputError("bench", n, "not built yet (comes with " + coming.at(n) + ")");
+        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render");
+    }
+    bench::BenchOptions bo;
+    bo.repeats = options.repeats;
+    bo.quick = options.quick;
+    std::cout << "bench.threads: " << tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) << " threads" << std::endl;
+    for (const std::string& n : names) built.at(n)(std::cout, bo);
+    return kExitOk;
+}
+
+}  // namespace dgv::app

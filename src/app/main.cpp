@@ -1,1 +1,141 @@
-int main() { return 0; }
+// dgv: the command line. Parses arguments (CLI11), sets up threads, progress and signals, runs
+// one subcommand, and turns the two kinds of user-facing failure into one line and an exit code.
+
+#include "app/commands.hpp"
+#include "base/errors.hpp"
+#include "base/progress.hpp"
+#include "io/atomic_file.hpp"
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <new>
+
+namespace {
+
+extern "C" void onSignal(int) {
+    dgv::requestCancel();
+    dgv::removePendingTemporaries();
+}
+
+const char* kExitCodes =
+    "Exit codes: 0 success, 1 run-time failure (I/O, GL), 2 bad input or usage, 130 interrupted.";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    using namespace dgv;
+    CLI::App cli{"dgv: deforming geometric volumes, rendered offscreen.\n"
+                 "With no subcommand, renders the default scene (scenes/default.json) into out/."};
+    cli.footer(kExitCodes);
+    cli.set_version_flag("--version", std::string("dgv ") + DGV_VERSION_STRING);
+    int threads = 0;
+    bool quiet = false;
+    std::string progress = "auto";
+    cli.add_option("--threads", threads, "Worker threads (0: all cores)")->check(CLI::Range(0, 1024));
+    cli.add_flag("-q,--quiet", quiet, "No progress output");
+    cli.add_option("--progress", progress, "Progress display: auto, bar or log")
+        ->check(CLI::IsMember({"auto", "bar", "log"}));
+    cli.require_subcommand(0, 1);
+
+    app::RenderOptions render;
+    auto* cRender = cli.add_subcommand("render", "Render a scene to a PNG sequence <out>/<name>.####.png");
+    cRender->add_option("scene", render.scene, "Scene file (JSON, see scenes/README.md)")->required();
+    cRender->add_option("--frames", render.frames, "Frame range A-B (or one frame N), within the scene's range");
+    cRender->add_option("--out", render.outDir, "Output folder (default: the scene's output.dir)");
+    cRender->add_option("--width", render.width, "Image width in pixels")->check(CLI::Range(16, 16384));
+    cRender->add_option("--height", render.height, "Image height in pixels")->check(CLI::Range(16, 16384));
+    cRender->footer(kExitCodes);
+
+    auto* cSim = cli.add_subcommand("simulate", "Simulate a scene and write caches (not built yet)");
+    std::string simScene;
+    cSim->add_option("scene", simScene, "Scene file")->required();
+    cSim->allow_extras();
+
+    auto* cGln = cli.add_subcommand("gln", "Gauss linking number of two closed curves (not built yet)");
+    cGln->allow_extras();
+
+    app::ImgdiffOptions diff;
+    auto* cDiff = cli.add_subcommand("imgdiff", "Compare two images by the golden-image rule; exit 0 if they match, 1 if not");
+    cDiff->add_option("reference", diff.reference, "Reference PNG")->required();
+    cDiff->add_option("candidate", diff.candidate, "Candidate PNG")->required();
+    cDiff->add_option("--threshold", diff.threshold, "Per-pixel tolerance in 8-bit code values (max over channels)")->capture_default_str()
+        ->check(CLI::Range(0.0, 255.0));
+    cDiff->add_option("--max-fraction", diff.maxFraction, "Fraction of pixels allowed over the threshold")->capture_default_str()
+        ->check(CLI::Range(0.0, 1.0));
+    cDiff->add_option("--hard", diff.hard, "Fail if any pixel differs by more than this (default off)")
+        ->check(CLI::Range(0.0, 255.0));
+    cDiff->add_option("--diff-out", diff.diffDir, "On failure write <name>.new.png and <name>.diff.png here");
+
+    app::InfoOptions info;
+    auto* cInfo = cli.add_subcommand("info", "What import and voxelisation make of a mesh");
+    cInfo->add_option("mesh", info.mesh, "Mesh file (any format assimp reads)")->required();
+    cInfo->add_option("--mesh-name", info.meshName, "Only the mesh or node of this name");
+    auto* oSize = cInfo->add_option("--voxel-size", info.voxelSize, "Voxel size in world units")
+                      ->check(CLI::PositiveNumber);
+    auto* oRes = cInfo->add_option("--resolution", info.resolution, "Lattice points along the longest side (default 64)")
+                     ->check(CLI::Range(2, 2048));
+    oSize->excludes(oRes);
+
+    app::BenchCommandOptions bench;
+    auto* cBench = cli.add_subcommand("bench", "Benchmarks; print 'name: value unit' lines");
+    cBench->add_option("names", bench.names, "geometry, voxelise, render (default: all built)");
+    cBench->add_option("--repeats", bench.repeats, "Timed repetitions")->capture_default_str()->check(CLI::Range(1, 100));
+    cBench->add_flag("--quick", bench.quick, "Small problem sizes");
+
+    try {
+        cli.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return cli.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return cli.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return cli.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "dgv: %s (see dgv --help)\n", e.what());
+        return kExitBadInput;
+    }
+
+    Progress::setQuiet(quiet);
+    Progress::setMode(progress == "bar" ? 1 : progress == "log" ? 2 : 0);
+    std::unique_ptr<tbb::global_control> threadLimit;
+    if (threads > 0)
+        threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                            static_cast<std::size_t>(threads));
+    std::signal(SIGINT, onSignal);
+    std::signal(SIGTERM, onSignal);
+
+    try {
+        if (*cRender) return app::runRender(render);
+        if (*cInfo) return app::runInfo(info);
+        if (*cDiff) return app::runImgdiff(diff);
+        if (*cBench) return app::runBench(bench);
+        if (*cSim) {
+            std::fprintf(stderr, "dgv simulate: not built yet: dynamics and VDB caches are the next "
+                                 "milestones; 'dgv render %s' renders the scene at rest\n", simScene.c_str());
+            return kExitFailure;
+        }
+        if (*cGln) {
+            std::fprintf(stderr, "dgv gln: not built yet: linking numbers are a coming milestone\n");
+            return kExitFailure;
+        }
+        app::RenderOptions def;
+        def.scene = app::defaultScenePath();
+        return app::runRender(def);
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "dgv: error: %s\n", e.what());
+        return kExitBadInput;
+    } catch (const RuntimeError& e) {
+        std::fprintf(stderr, "dgv: error: %s\n", e.what());
+        return kExitFailure;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "dgv: error: out of memory\n");
+        return kExitFailure;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "dgv: error: %s\n", e.what());
+        return kExitFailure;
+    }
+}

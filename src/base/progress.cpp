@@ -79,6 +79,17 @@ void Progress::finish() {
     std::fflush(stderr);
 }
 
+void logInfo(const std::string& line) {
+    if (gQuiet) return;
+    std::fprintf(stderr, "dgv: %s\n", line.c_str());
+    std::fflush(stderr);
+}
+
+void logWarning(const std::string& line) {
+    std::fprintf(stderr, "dgv: warning: %s\n", line.c_str());
+    std::fflush(stderr);
+}
+
 void requestCancel() noexcept { gCancel = 1; }
 bool cancelRequested() noexcept { return gCancel != 0; }
 void resetCancel() noexcept { gCancel = 0; }

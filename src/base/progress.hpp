@@ -43,6 +43,11 @@ private:
     std::chrono::steady_clock::time_point mLastDraw;
 };
 
+/// One informational line on stderr ("dgv: ..."), unless quiet.
+void logInfo(const std::string& line);
+/// One warning line on stderr ("dgv: warning: ..."), printed even when quiet.
+void logWarning(const std::string& line);
+
 /// Formats seconds as M:SS or H:MM:SS.
 std::string formatDuration(double seconds);
 

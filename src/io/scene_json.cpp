@@ -1,1 +1,468 @@
-// placeholder: implemented in this session
+#include "io/scene_json.hpp"
+
+#include "base/errors.hpp"
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <set>
+#include <sstream>
+
+namespace dgv {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+std::string describe(const Json& v) {
+    switch (v.type()) {
+        case Json::value_t::null: return "null";
+        case Json::value_t::boolean: return v.get<bool>() ? "true" : "false";
+        case Json::value_t::string: return "\"" + v.get<std::string>() + "\"";
+        case Json::value_t::array: return "an array";
+        case Json::value_t::object: return "an object";
+        default: {
+            std::string s = v.dump();
+            return s.size() > 40 ? s.substr(0, 40) + "..." : s;
+        }
+    }
+}
+
+/// Levenshtein distance, for "did you mean" suggestions.
+std::size_t editDistance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        cur[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j)
+            cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1] ? 1 : 0)});
+        std::swap(prev, cur);
+    }
+    return prev[b.size()];
+}
+
+/// A JSON object being read: remembers its path for messages and which keys were consumed,
+/// so that finish() can reject unknown keys.
+class ObjectReader {
+public:
+    ObjectReader(const Json& j, std::string path, const std::string& file)
+        : mJson(j), mPath(std::move(path)), mFile(file) {
+        if (!j.is_object()) fail("", "expected an object, got " + describe(j));
+    }
+
+    [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+        throw InputError(mFile, at(key), what);
+    }
+    std::string at(const std::string& key) const {
+        if (key.empty()) return mPath.empty() ? "(top level)" : mPath;
+        return mPath.empty() ? key : mPath + "." + key;
+    }
+    const std::string& file() const { return mFile; }
+
+    bool has(const std::string& key) {
+        mKnown.insert(key);
+        return mJson.contains(key);
+    }
+    const Json* get(const std::string& key) {
+        mKnown.insert(key);
+        auto it = mJson.find(key);
+        return it == mJson.end() ? nullptr : &*it;
+    }
+
+    Real number(const std::string& key, Real def, Real lo, Real hi, bool loOpen = false) {
+        const Json* v = get(key);
+        if (!v) return def;
+        return checkNumber(key, *v, lo, hi, loOpen);
+    }
+    Real checkNumber(const std::string& key, const Json& v, Real lo, Real hi, bool loOpen) const {
+        if (!v.is_number()) fail(key, "expected a number, got " + describe(v));
+        Real x = v.get<Real>();
+        if (!std::isfinite(x)) fail(key, "expected a finite number, got " + describe(v));
+        if ((loOpen ? x <= lo : x < lo) || x > hi) fail(key, rangeText(lo, hi, loOpen) + ", got " + describe(v));
+        return x;
+    }
+    static std::string rangeText(Real lo, Real hi, bool loOpen) {
+        std::ostringstream os;
+        if (loOpen && lo == 0 && hi == HUGE_VAL) return "expected a positive number";
+        if (lo == 0 && hi == HUGE_VAL) return "expected a number >= 0";
+        os << "expected a number in " << (loOpen ? "(" : "[") << lo << ", " << hi << "]";
+        return os.str();
+    }
+    int integer(const std::string& key, int def, int lo, int hi) {
+        const Json* v = get(key);
+        if (!v) return def;
+        if (!v->is_number_integer()) fail(key, "expected an integer, got " + describe(*v));
+        long long x = v->get<long long>();
+        if (x < lo || x > hi)
+            fail(key, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + describe(*v));
+        return static_cast<int>(x);
+    }
+    bool boolean(const std::string& key, bool def) {
+        const Json* v = get(key);
+        if (!v) return def;
+        if (!v->is_boolean()) fail(key, "expected true or false, got " + describe(*v));
+        return v->get<bool>();
+    }
+    std::string string(const std::string& key, const std::string& def, bool nonEmpty = true) {
+        const Json* v = get(key);
+        if (!v) return def;
+        if (!v->is_string()) fail(key, "expected a string, got " + describe(*v));
+        std::string s = v->get<std::string>();
+        if (nonEmpty && s.empty()) fail(key, "expected a non-empty string");
+        return s;
+    }
+    std::string choice(const std::string& key, const std::string& def, const std::vector<std::string>& options) {
+        const Json* v = get(key);
+        if (!v) {
+            if (def.empty()) fail(key, "missing; expected one of " + join(options));
+            return def;
+        }
+        if (!v->is_string()) fail(key, "expected one of " + join(options) + ", got " + describe(*v));
+        std::string s = v->get<std::string>();
+        if (std::find(options.begin(), options.end(), s) == options.end())
+            fail(key, "expected one of " + join(options) + ", got " + describe(*v));
+        return s;
+    }
+    Vec3 vec3(const std::string& key, const Vec3& def, Real lo = -HUGE_VAL, Real hi = HUGE_VAL) {
+        const Json* v = get(key);
+        if (!v) return def;
+        if (!v->is_array() || v->size() != 3) fail(key, "expected an array of 3 numbers, got " + describe(*v));
+        Vec3 r;
+        for (int i = 0; i < 3; ++i) {
+            const Json& e = (*v)[static_cast<std::size_t>(i)];
+            std::string k = key + "[" + std::to_string(i) + "]";
+            r[i] = checkNumber(k, e, lo, hi, false);
+        }
+        return r;
+    }
+    Vec3 direction(const std::string& key, const Vec3& def) {
+        Vec3 d = vec3(key, def);
+        if (d.norm() < 1e-12) fail(key, "expected a non-zero direction");
+        return d.normalized();
+    }
+    Vec3 color(const std::string& key, const Vec3& defLinear) {
+        if (!has(key)) return defLinear;
+        Vec3 c = vec3(key, Vec3::Zero(), 0.0, 1.0);
+        return Vec3(srgbToLinear(c.x()), srgbToLinear(c.y()), srgbToLinear(c.z()));
+    }
+
+    /// Calls f(reader) for the sub-object at `key` if present.
+    template <typename F>
+    void object(const std::string& key, F&& f) {
+        const Json* v = get(key);
+        if (!v) return;
+        ObjectReader sub(*v, at(key), mFile);
+        f(sub);
+        sub.finish();
+    }
+    /// Calls f(reader, index) for each object of the array at `key`.
+    template <typename F>
+    void array(const std::string& key, F&& f) {
+        const Json* v = get(key);
+        if (!v) return;
+        if (!v->is_array()) fail(key, "expected an array, got " + describe(*v));
+        for (std::size_t i = 0; i < v->size(); ++i) {
+            ObjectReader sub((*v)[i], at(key) + "[" + std::to_string(i) + "]", mFile);
+            f(sub, static_cast<int>(i));
+            sub.finish();
+        }
+    }
+
+    /// Rejects keys nobody asked for, suggesting the closest known one.
+    void finish() const {
+        for (auto it = mJson.begin(); it != mJson.end(); ++it) {
+            if (mKnown.count(it.key())) continue;
+            std::string best;
+            std::size_t bestDist = 3;
+            for (const auto& k : mKnown) {
+                std::size_t d = editDistance(it.key(), k);
+                if (d < bestDist) bestDist = d, best = k;
+            }
+            std::string what = "unknown key";
+            if (!best.empty()) what += " (did you mean '" + best + "'?)";
+            else what += "; known keys here: " + join(std::vector<std::string>(mKnown.begin(), mKnown.end()));
+            throw InputError(mFile, at(it.key()), what);
+        }
+    }
+
+    static std::string join(const std::vector<std::string>& v) {
+        std::string s;
+        for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + ("'" + v[i] + "'");
+        return s;
+    }
+
+private:
+    const Json& mJson;
+    std::string mPath;
+    const std::string& mFile;
+    std::set<std::string> mKnown;
+};
+
+std::string lineColumn(const std::string& text, std::size_t byte) {
+    std::size_t line = 1, col = 1;
+    for (std::size_t i = 0; i < byte && i < text.size(); ++i) {
+        if (text[i] == '\n') ++line, col = 1;
+        else ++col;
+    }
+    return "line " + std::to_string(line) + ", column " + std::to_string(col);
+}
+
+fs::path resolveInput(const fs::path& sceneDir, const std::string& p) {
+    fs::path path(p);
+    return (path.is_absolute() ? path : sceneDir / path).lexically_normal();
+}
+
+TransformDesc readTransform(ObjectReader& r) {
+    TransformDesc t;
+    t.translate = r.vec3("translate", t.translate);
+    t.rotateDegrees = r.vec3("rotate", t.rotateDegrees);
+    if (const Json* s = r.get("scale")) {
+        if (s->is_number()) {
+            Real k = r.checkNumber("scale", *s, 0, HUGE_VAL, true);
+            t.scale = Vec3::Constant(k);
+        } else {
+            t.scale = r.vec3("scale", t.scale);
+            for (int i = 0; i < 3; ++i)
+                if (!(std::abs(t.scale[i]) > 0)) r.fail("scale[" + std::to_string(i) + "]", "expected a non-zero scale");
+        }
+    }
+    return t;
+}
+
+Keyframed readKeyframed(ObjectReader& r, const std::string& key, Real def) {
+    Keyframed k;
+    const Json* v = r.get(key);
+    if (!v) {
+        k.keys.push_back({1, def});
+        return k;
+    }
+    if (v->is_number()) {
+        k.keys.push_back({1, r.checkNumber(key, *v, -HUGE_VAL, HUGE_VAL, false)});
+        return k;
+    }
+    if (!v->is_array() || v->empty())
+        r.fail(key, "expected a number or an array of [frame, value] keys, got " + describe(*v));
+    for (std::size_t i = 0; i < v->size(); ++i) {
+        const Json& e = (*v)[i];
+        std::string ki = key + "[" + std::to_string(i) + "]";
+        if (!e.is_array() || e.size() != 2) r.fail(ki, "expected a [frame, value] pair, got " + describe(e));
+        Real f = r.checkNumber(ki + "[0]", e[0], -HUGE_VAL, HUGE_VAL, false);
+        Real val = r.checkNumber(ki + "[1]", e[1], -HUGE_VAL, HUGE_VAL, false);
+        if (!k.keys.empty() && f <= k.keys.back().first) r.fail(ki, "key frames must increase");
+        k.keys.push_back({f, val});
+    }
+    return k;
+}
+
+void readVoxel(ObjectReader& r, VoxeliseSettings& v) {
+    bool hasSize = r.has("voxel_size"), hasRes = r.has("resolution");
+    if (hasSize && hasRes) r.fail("voxel_size", "give voxel_size or resolution, not both");
+    if (!hasSize && !hasRes) v.resolution = 48;
+    if (hasSize) v.voxelSize = r.number("voxel_size", 0, 0, HUGE_VAL, true);
+    if (hasRes) v.resolution = r.integer("resolution", 48, 2, 2048);
+    for (const std::string& problem : v.validate()) {
+        auto colon = problem.find(':');
+        r.fail(problem.substr(0, colon), colon == std::string::npos ? problem : problem.substr(colon + 2));
+    }
+}
+
+}  // namespace
+
+SceneDesc parseScene(const std::string& text, const fs::path& path) {
+    const std::string file = path.string();
+    Json root;
+    try {
+        root = Json::parse(text);
+    } catch (const Json::parse_error& e) {
+        std::string msg = e.what();
+        // nlohmann: "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
+        auto p = msg.find("parse error");
+        if (p != std::string::npos) msg = msg.substr(p);
+        if (text.find_first_not_of(" \t\r\n") == std::string::npos) msg = "the file is empty";
+        throw InputError(file, "", "malformed JSON: " + msg + " (" + lineColumn(text, e.byte > 0 ? e.byte - 1 : 0) + ")");
+    }
+
+    const fs::path sceneDir = fs::absolute(path).parent_path();
+    SceneDesc s;
+    s.path = file;
+    ObjectReader r(root, "", file);
+
+    s.name = r.string("name", path.stem().string());
+    for (char c : s.name)
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'))
+            r.fail("name", "use letters, digits, '_' and '-' only (it names output files), got \"" + s.name + "\"");
+
+    r.object("frames", [&](ObjectReader& f) {
+        s.frameStart = f.integer("start", 1, 0, 999999);
+        s.frameEnd = f.integer("end", s.frameStart, 0, 999999);
+        if (s.frameEnd < s.frameStart) f.fail("end", "must be >= start (" + std::to_string(s.frameStart) + ")");
+        s.fps = f.number("fps", 24, 0, 1000, true);
+    });
+    s.substeps = r.integer("substeps", 1, 1, 1000);
+
+    r.array("objects", [&](ObjectReader& o, int i) {
+        ObjectDesc d;
+        d.name = o.string("name", "object" + std::to_string(i));
+        bool hasMesh = o.has("mesh"), hasPrim = o.has("primitive");
+        if (hasMesh == hasPrim) o.fail("", "give exactly one of 'mesh' (a file) or 'primitive'");
+        if (hasMesh) {
+            d.meshPath = resolveInput(sceneDir, o.string("mesh", "")).string();
+            d.meshName = o.string("mesh_name", "");
+        }
+        o.object("primitive", [&](ObjectReader& p) {
+            d.isPrimitive = true;
+            std::string type = p.choice("type", "", {"sphere", "box", "torus", "capsule"});
+            PrimitiveDesc& pd = d.primitive;
+            if (type == "sphere") {
+                pd.type = PrimitiveType::Sphere;
+                pd.radius = p.number("radius", 0.5, 0, HUGE_VAL, true);
+            } else if (type == "box") {
+                pd.type = PrimitiveType::Box;
+                pd.size = p.vec3("size", Vec3::Ones());
+                for (int k = 0; k < 3; ++k)
+                    if (!(pd.size[k] > 0)) p.fail("size[" + std::to_string(k) + "]", "expected a positive edge length");
+            } else if (type == "torus") {
+                pd.type = PrimitiveType::Torus;
+                pd.majorRadius = p.number("major_radius", 0.5, 0, HUGE_VAL, true);
+                pd.minorRadius = p.number("minor_radius", 0.2, 0, HUGE_VAL, true);
+                if (pd.minorRadius >= pd.majorRadius)
+                    p.fail("minor_radius", "must be smaller than major_radius (a torus with no hole)");
+            } else {
+                pd.type = PrimitiveType::Capsule;
+                pd.radius = p.number("radius", 0.3, 0, HUGE_VAL, true);
+                pd.height = p.number("height", 1.0, 0, HUGE_VAL, false);
+            }
+        });
+        o.object("transform", [&](ObjectReader& t) { d.transform = readTransform(t); });
+        readVoxel(o, d.voxel);
+        d.color = o.color("color", d.color);
+        d.deformable = o.boolean("deformable", true);
+        s.objects.push_back(std::move(d));
+    });
+    if (s.objects.empty()) r.fail("objects", "a scene needs at least one object");
+    for (std::size_t i = 0; i < s.objects.size(); ++i)
+        for (std::size_t j = 0; j < i; ++j)
+            if (s.objects[i].name == s.objects[j].name)
+                throw InputError(file, "objects[" + std::to_string(i) + "].name",
+                                 "duplicate object name \"" + s.objects[i].name + "\"");
+
+    r.array("forces", [&](ObjectReader& f, int) {
+        ForceDesc d;
+        std::string type = f.choice("type", "", {"gravity", "attractor", "vortex", "burst", "wind"});
+        if (type == "gravity") {
+            d.type = ForceType::Gravity;
+            d.direction = f.direction("direction", d.direction);
+            d.strength = readKeyframed(f, "strength", 9.81);
+        } else if (type == "attractor") {
+            d.type = ForceType::Attractor;
+            d.position = f.vec3("position", d.position);
+            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+            d.strength = readKeyframed(f, "strength", 1);
+        } else if (type == "vortex") {
+            d.type = ForceType::Vortex;
+            d.position = f.vec3("position", d.position);
+            d.axis = f.direction("axis", d.axis);
+            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+            d.strength = readKeyframed(f, "strength", 1);
+        } else if (type == "burst") {
+            d.type = ForceType::Burst;
+            d.position = f.vec3("position", d.position);
+            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+            d.strength = readKeyframed(f, "strength", 1);
+        } else {
+            d.type = ForceType::Wind;
+            d.direction = f.direction("direction", Vec3::UnitX());
+            d.strength = readKeyframed(f, "strength", 1);
+            d.turbulence = f.number("turbulence", 0, 0, HUGE_VAL);
+            d.scale = f.number("scale", 1, 0, HUGE_VAL, true);
+            d.seed = static_cast<unsigned>(f.integer("seed", 1, 0, 1 << 30));
+        }
+        s.forces.push_back(d);
+    });
+
+    r.array("colliders", [&](ObjectReader& c, int) {
+        ColliderDesc d;
+        std::string type = c.choice("type", "", {"ground", "sphere", "mesh"});
+        if (type == "ground") {
+            d.type = ColliderType::Ground;
+            d.height = c.number("height", 0, -HUGE_VAL, HUGE_VAL);
+        } else if (type == "sphere") {
+            d.type = ColliderType::Sphere;
+            d.centre = c.vec3("centre", d.centre);
+            d.radius = c.number("radius", 1, 0, HUGE_VAL, true);
+        } else {
+            d.type = ColliderType::Mesh;
+            if (!c.has("mesh")) c.fail("mesh", "missing; a mesh collider needs a mesh file");
+            d.meshPath = resolveInput(sceneDir, c.string("mesh", "")).string();
+            c.object("transform", [&](ObjectReader& t) { d.transform = readTransform(t); });
+        }
+        d.friction = c.number("friction", d.friction, 0, 1);
+        d.restitution = c.number("restitution", d.restitution, 0, 1);
+        s.colliders.push_back(d);
+    });
+
+    r.object("camera", [&](ObjectReader& c) {
+        CameraDesc& d = s.camera;
+        std::string type = c.choice("type", "turntable", {"turntable", "look_at"});
+        d.fovDegrees = c.number("fov", d.fovDegrees, 1, 170);
+        if (type == "turntable") {
+            d.type = CameraType::Turntable;
+            d.degrees = c.number("degrees", d.degrees, -36000, 36000);
+            d.startDegrees = c.number("start", d.startDegrees, -36000, 36000);
+            d.elevationDegrees = c.number("elevation", d.elevationDegrees, -89, 89);
+            d.margin = c.number("margin", d.margin, 0.1, 100);
+        } else {
+            d.type = CameraType::LookAt;
+            d.eye = c.vec3("eye", d.eye);
+            d.target = c.vec3("target", d.target);
+            d.up = c.direction("up", d.up);
+            if ((d.eye - d.target).norm() < 1e-9) c.fail("target", "must differ from eye");
+            if ((d.eye - d.target).normalized().cross(d.up).norm() < 1e-6)
+                c.fail("up", "must not be parallel to the view direction");
+        }
+    });
+
+    r.object("render", [&](ObjectReader& g) {
+        RenderDesc& d = s.render;
+        d.width = g.integer("width", d.width, 16, 16384);
+        d.height = g.integer("height", d.height, 16, 16384);
+        d.supersample = g.integer("supersample", d.supersample, 1, 4);
+        d.background = g.color("background", d.background);
+        d.transparent = g.boolean("transparent", d.transparent);
+        d.ground = g.boolean("ground", d.ground);
+        d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
+        if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
+        if (static_cast<long long>(d.width) * d.supersample > 16384 || static_cast<long long>(d.height) * d.supersample > 16384)
+            g.fail("supersample", "width and height times supersample must stay within 16384 (the GL limit)");
+    });
+
+    std::string outDir = "out/" + s.name;
+    r.object("output", [&](ObjectReader& o) {
+        outDir = o.string("dir", outDir);
+        s.output.vdb = o.boolean("vdb", false);
+    });
+    if (outDir.rfind("//", 0) == 0) s.output.dir = (sceneDir / outDir.substr(2)).lexically_normal().string();
+    else s.output.dir = fs::absolute(outDir).lexically_normal().string();
+
+    r.finish();
+    return s;
+}
+
+SceneDesc loadScene(const fs::path& path) {
+    std::error_code ec;
+    if (!fs::exists(path, ec)) throw InputError(path.string(), "", "no such file");
+    if (fs::is_directory(path, ec)) throw InputError(path.string(), "", "is a folder, not a scene file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path.string(), "", "cannot be read (permission denied?)");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    if (in.bad()) throw InputError(path.string(), "", "read error");
+    return parseScene(ss.str(), path);
+}
+
+}  // namespace dgv

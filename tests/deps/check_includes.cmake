@@ -1,6 +1,7 @@
 # Checks every #include "module/..." in src/ and render/ against the dependency table of
 # docs/conventions.md (from DESIGN.md), and that third-party headers stay out of dgv's headers
 # outside base/. Run: cmake -DROOT=<source dir> -P check_includes.cmake
+cmake_policy(SET CMP0057 NEW)  # IN_LIST
 set(allowed_base     "base")
 set(allowed_geom     "base;geom")
 set(allowed_solve    "base;geom;solve")

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages dgv needs, only those that are missing (a second run does
+# nothing). Usage: scripts/install-deps.sh [--tests]
+#   --tests  also what the test suite needs (Catch2, assimp's test models, OpenVDB's tools)
+set -euo pipefail
+
+build_pkgs=(build-essential cmake ninja-build pkg-config
+  libeigen3-dev libtbb-dev libassimp-dev libosmesa6-dev libpng-dev
+  libopenvdb-dev libboost-iostreams-dev nlohmann-json3-dev libcli11-dev catch2)
+test_pkgs=(assimp-testmodels libopenvdb-tools)
+
+pkgs=("${build_pkgs[@]}")
+if [[ "${1:-}" == "--tests" ]]; then pkgs+=("${test_pkgs[@]}"); fi
+
+missing=()
+for p in "${pkgs[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if [[ ${#missing[@]} -eq 0 ]]; then
+  echo "install-deps: all ${#pkgs[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+if [[ $(id -u) -ne 0 ]]; then
+  if command -v sudo >/dev/null; then sudo="sudo"; else
+    echo "install-deps: missing packages (${missing[*]}) and not root; install them as root" >&2
+    exit 1
+  fi
+fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"

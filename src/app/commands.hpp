@@ -1,0 +1,45 @@
+#pragma once
+// The subcommands of `dgv`. Each returns the process exit code (base/errors.hpp: 0 ok,
+// 1 run-time failure, 2 bad input or usage, 130 interrupted); bad input is thrown as
+// InputError and turned into one line and exit 2 by main.
+
+#include <string>
+#include <vector>
+
+namespace dgv::app {
+
+struct RenderOptions {
+    std::string scene;        ///< scene file
+    std::string frames;       ///< "A-B" or "N"; empty: the scene's range
+    std::string outDir;       ///< empty: the scene's output.dir
+    int width = 0, height = 0;  ///< 0: the scene's
+};
+int runRender(const RenderOptions& options);
+
+struct InfoOptions {
+    std::string mesh;
+    std::string meshName;
+    double voxelSize = 0;
+    int resolution = 0;
+};
+int runInfo(const InfoOptions& options);
+
+struct ImgdiffOptions {
+    std::string reference, candidate;
+    double threshold = 4, maxFraction = 0.005, hard = -1;
+    std::string diffDir;      ///< where .new.png and .diff.png go on failure; empty: none
+};
+int runImgdiff(const ImgdiffOptions& options);
+
+struct BenchCommandOptions {
+    std::vector<std::string> names;
+    int repeats = 3;
+    bool quick = false;
+};
+int runBench(const BenchCommandOptions& options);
+
+/// The default scene: scenes/default.json under the working directory, else in the source
+/// tree dgv was built from, else <exe dir>/../share/dgv/scenes.
+std::string defaultScenePath();
+
+}  // namespace dgv::app

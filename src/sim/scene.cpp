@@ -1,0 +1,37 @@
+#include "sim/scene.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+
+namespace dgv {
+
+Mat3 TransformDesc::linear() const {
+    const Real d = M_PI / 180.0;
+    Mat3 r = (Eigen::AngleAxis<Real>(rotateDegrees.z() * d, Vec3::UnitZ()) *
+              Eigen::AngleAxis<Real>(rotateDegrees.y() * d, Vec3::UnitY()) *
+              Eigen::AngleAxis<Real>(rotateDegrees.x() * d, Vec3::UnitX()))
+                 .toRotationMatrix();
+    return r * scale.asDiagonal();
+}
+
+Real Keyframed::at(Real frame) const {
+    if (keys.empty()) return 0;
+    if (frame <= keys.front().first) return keys.front().second;
+    if (frame >= keys.back().first) return keys.back().second;
+    for (std::size_t i = 1; i < keys.size(); ++i) {
+        if (frame <= keys[i].first) {
+            const auto& [f0, v0] = keys[i - 1];
+            const auto& [f1, v1] = keys[i];
+            Real t = (frame - f0) / (f1 - f0);
+            return v0 + t * (v1 - v0);
+        }
+    }
+    return keys.back().second;
+}
+
+Real srgbToLinear(Real c) {
+    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+}  // namespace dgv

@@ -1,0 +1,131 @@
+#pragma once
+/// @file scene.hpp
+/// @brief A scene as dgv runs it: plain settings structs, already validated and with every
+/// path resolved. io/scene_json maps a scene file onto these (scenes/README.md is the schema);
+/// the pipeline stages read them. World units are metres, right-handed, Y up.
+
+#include "base/types.hpp"
+#include "geom/voxelise.hpp"
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace dgv {
+
+/// Scale, then rotate (Euler angles in degrees, applied about X, then Y, then Z), then translate.
+struct TransformDesc {
+    Vec3 translate = Vec3::Zero();
+    Vec3 rotateDegrees = Vec3::Zero();
+    Vec3 scale = Vec3::Ones();
+
+    Mat3 linear() const;  ///< R * S
+};
+
+enum class PrimitiveType { Sphere, Box, Torus, Capsule };
+
+struct PrimitiveDesc {
+    PrimitiveType type = PrimitiveType::Sphere;
+    Real radius = 0.5;                  ///< sphere, capsule
+    Vec3 size = Vec3::Ones();           ///< box edge lengths
+    Real majorRadius = 0.5;             ///< torus: centre to tube centre
+    Real minorRadius = 0.2;             ///< torus: tube radius
+    Real height = 1.0;                  ///< capsule: distance between hemisphere centres
+};
+
+struct ObjectDesc {
+    std::string name;
+    bool isPrimitive = false;
+    PrimitiveDesc primitive;
+    std::string meshPath;       ///< absolute (resolved against the scene file's folder)
+    std::string meshName;       ///< import only this mesh/node of the file; empty: all
+    TransformDesc transform;
+    VoxeliseSettings voxel;
+    Vec3 color = Vec3(0.8, 0.8, 0.8);  ///< linear RGB (the file gives sRGB)
+    bool deformable = true;
+};
+
+/// A scalar keyframed over frames: linear interpolation, held constant outside the keys.
+struct Keyframed {
+    std::vector<std::pair<Real, Real>> keys;  ///< (frame, value), frames increasing
+    Real at(Real frame) const;
+};
+
+enum class ForceType { Gravity, Attractor, Vortex, Burst, Wind };
+
+struct ForceDesc {
+    ForceType type = ForceType::Gravity;
+    Keyframed strength;                     ///< m/s^2 (gravity, wind) or field scale
+    Vec3 direction = Vec3(0, -1, 0);        ///< gravity, wind (unit)
+    Vec3 position = Vec3::Zero();           ///< attractor, burst centre; vortex axis point
+    Vec3 axis = Vec3::UnitY();              ///< vortex (unit)
+    Real radius = 1.0;                      ///< falloff radius (attractor, vortex, burst)
+    Real turbulence = 0.0;                  ///< wind: curl-noise amplitude relative to strength
+    Real scale = 1.0;                       ///< wind: noise feature size
+    unsigned seed = 1;                      ///< wind: noise seed
+};
+
+enum class ColliderType { Ground, Sphere, Mesh };
+
+struct ColliderDesc {
+    ColliderType type = ColliderType::Ground;
+    Real height = 0;                        ///< ground: y of the plane
+    Vec3 centre = Vec3::Zero();             ///< sphere
+    Real radius = 1;                        ///< sphere
+    std::string meshPath;                   ///< mesh (absolute)
+    TransformDesc transform;                ///< mesh
+    Real friction = 0.5;                    ///< 0: slip, 1: sticky
+    Real restitution = 0.0;                 ///< elastic bounce, 0..1
+};
+
+enum class CameraType { Turntable, LookAt };
+
+struct CameraDesc {
+    CameraType type = CameraType::Turntable;
+    Real fovDegrees = 35;          ///< vertical field of view
+    // turntable: orbits `degrees` over the frame range, starting at `startDegrees`, framed on
+    // the bounds of all objects at rest
+    Real degrees = 360;
+    Real startDegrees = 0;
+    Real elevationDegrees = 20;
+    Real margin = 1.1;
+    // look_at
+    Vec3 eye = Vec3(0, 1, 5);
+    Vec3 target = Vec3::Zero();
+    Vec3 up = Vec3::UnitY();
+};
+
+struct RenderDesc {
+    int width = 640;
+    int height = 360;
+    int supersample = 2;
+    Vec3 background = Vec3(0.18, 0.19, 0.21);  ///< linear RGB (the file gives sRGB)
+    bool transparent = false;
+    bool ground = true;
+    int bitDepth = 8;
+};
+
+struct OutputDesc {
+    std::string dir;     ///< absolute; default <cwd>/out/<scene name>; frames <dir>/<name>.####.png
+    bool vdb = false;    ///< <dir>/vdb/<name>.####.vdb (not built yet: the VDB-cache issue)
+};
+
+struct SceneDesc {
+    std::string path;    ///< the scene file
+    std::string name;    ///< default: the file name without .json
+    int frameStart = 1;
+    int frameEnd = 1;
+    Real fps = 24;
+    int substeps = 1;
+    std::vector<ObjectDesc> objects;
+    std::vector<ForceDesc> forces;
+    std::vector<ColliderDesc> colliders;
+    CameraDesc camera;
+    RenderDesc render;
+    OutputDesc output;
+};
+
+/// sRGB-encoded component (0..1) to linear, with the exact sRGB curve.
+Real srgbToLinear(Real c);
+
+}  // namespace dgv

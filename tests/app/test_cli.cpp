@@ -1,0 +1,190 @@
+// The dgv command as a user runs it: exit codes, one-line errors, nothing half-written.
+
+#include "support/helpers.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+
+using namespace dgv;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<std::string> filesIn(const fs::path& dir) {
+    std::vector<std::string> names;
+    if (!fs::exists(dir)) return names;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) names.push_back(fs::relative(e.path(), dir).string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+std::string readBytes(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::size_t lineCount(const std::string& s) { return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n')); }
+
+std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+/// A small scene in `dir` rendering quickly.
+fs::path writeSmallScene(const fs::path& dir, const std::string& extra = "") {
+    fs::path scene = dir / "small.json";
+    std::ofstream(scene) << R"({
+  "frames": {"start": 1, "end": 2},
+  "objects": [{"primitive": {"type": "sphere", "radius": 0.5}, "resolution": 12, "color": [0.8, 0.3, 0.2]}],
+  "render": {"width": 64, "height": 48, "supersample": 1})" << extra << "}\n";
+    return scene;
+}
+
+}  // namespace
+
+TEST_CASE("cli: help and version", "[app][cli]") {
+    auto r = test::runDgv("--help");
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::Contains("render") && Catch::Contains("imgdiff") && Catch::Contains("Exit codes"));
+    r = test::runDgv("render --help");
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::Contains("--frames"));
+    r = test::runDgv("--version");
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::StartsWith("dgv "));
+}
+
+TEST_CASE("cli: bad usage exits 2 with one line", "[app][cli]") {
+    for (const char* args : {"render", "frobnicate", "render a.json --width -5", "info"}) {
+        INFO(args);
+        auto r = test::runDgv(args);
+        CHECK(r.exitCode == 2);
+        CHECK(lineCount(r.output) == 1);
+    }
+}
+
+TEST_CASE("cli: commands not built yet say so and exit non-zero", "[app][cli]") {
+    auto r = test::runDgv("simulate scenes/default.json");
+    CHECK(r.exitCode == 1);
+    CHECK_THAT(r.output, Catch::Contains("not built yet"));
+    r = test::runDgv("gln a.txt b.txt");
+    CHECK(r.exitCode == 1);
+    CHECK_THAT(r.output, Catch::Contains("not built yet"));
+}
+
+TEST_CASE("cli: bad scenes give one line naming file and path, exit 2, and write nothing", "[app][cli]") {
+    test::TempDir dir("cli_bad");
+    const fs::path out = dir.path() / "out";
+    struct Case {
+        std::string text, expected;
+    };
+    std::vector<Case> cases = {
+        {"{\"objects\": [", "malformed JSON"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "voxel_size": 0}]})", "objects[0].voxel_size: expected a positive number"},
+        {R"({"objects": [{"mesh": "missing.obj"}]})", "objects[0].mesh:"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "voxel_size": 1e-6}]})", "objects[0].voxel_size"},
+    };
+    for (const Case& c : cases) {
+        INFO(c.text);
+        fs::path scene = dir.path() / "bad.json";
+        std::ofstream(scene) << c.text;
+        auto r = test::runDgv("render " + q(scene) + " --out " + q(out));
+        CHECK(r.exitCode == 2);
+        CHECK(lineCount(r.output) == 1);
+        CHECK_THAT(r.output, Catch::Contains("bad.json") && Catch::Contains(c.expected));
+        CHECK_FALSE(fs::exists(out));
+    }
+    auto r = test::runDgv("render " + q(dir.path() / "absent.json"));
+    CHECK(r.exitCode == 2);
+    CHECK_THAT(r.output, Catch::Contains("absent.json: no such file"));
+}
+
+TEST_CASE("cli: render writes a numbered PNG sequence and nothing else", "[app][cli][render]") {
+    test::TempDir dir("cli_render");
+    fs::path scene = writeSmallScene(dir.path());
+    const fs::path out = dir.path() / "frames";
+    auto r = test::runDgv("--progress log render " + q(scene) + " --out " + q(out));
+    INFO(r.output);
+    REQUIRE(r.exitCode == 0);
+    CHECK(filesIn(out) == std::vector<std::string>{"small.0001.png", "small.0002.png"});
+    CHECK_THAT(r.output, Catch::Contains("render 2/2 frames"));
+
+    SECTION("a frame range renders only those frames, keeping the scene's numbers") {
+        const fs::path out2 = dir.path() / "part";
+        auto r2 = test::runDgv("-q render " + q(scene) + " --frames 2-2 --out " + q(out2));
+        REQUIRE(r2.exitCode == 0);
+        CHECK(r2.output.empty());
+        CHECK(filesIn(out2) == std::vector<std::string>{"small.0002.png"});
+        // the same frame rendered in another run is byte-identical
+        CHECK(readBytes(out2 / "small.0002.png") == readBytes(out / "small.0002.png"));
+    }
+    SECTION("a range outside the scene is refused") {
+        auto r2 = test::runDgv("render " + q(scene) + " --frames 2-9 --out " + q(dir.path() / "x"));
+        CHECK(r2.exitCode == 2);
+        CHECK_THAT(r2.output, Catch::Contains("outside the scene's range 1-2"));
+        CHECK_FALSE(fs::exists(dir.path() / "x"));
+    }
+}
+
+TEST_CASE("cli: info describes a mesh and its voxelisation", "[app][cli]") {
+    test::TempDir dir("cli_info");
+    fs::path obj = dir.path() / "cube.obj";
+    std::ofstream(obj) << "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nv 0 0 2\nv 2 0 2\nv 2 2 2\nv 0 2 2\n"
+                          "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 1 5 8 4\n";
+    auto r = test::runDgv("info " + q(obj) + " --voxel-size 0.25");
+    INFO(r.output);
+    REQUIRE(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::Contains("triangles: 12\n"));
+    CHECK_THAT(r.output, Catch::Contains("closed: yes\n"));
+    CHECK_THAT(r.output, Catch::Contains("manifold: yes\n"));
+    CHECK_THAT(r.output, Catch::Contains("mesh_volume: 8\n"));
+    CHECK_THAT(r.output, Catch::Contains("voxels: 512\n"));  // 8 x 8 x 8 centres inside
+    CHECK_THAT(r.output, Catch::Contains("voxel_to_mesh_volume: 1.0000\n"));
+
+    auto bad = test::runDgv("info " + q(dir.path() / "none.obj"));
+    CHECK(bad.exitCode == 2);
+    CHECK(lineCount(bad.output) == 1);
+}
+
+TEST_CASE("cli: imgdiff passes identical images and fails different ones", "[app][cli][render]") {
+    test::TempDir dir("cli_imgdiff");
+    fs::path a = writeSmallScene(dir.path());
+    REQUIRE(test::runDgv("-q render " + q(a) + " --out " + q(dir.path() / "a")).exitCode == 0);
+    fs::path scene2 = dir.path() / "moved" / "small.json";
+    fs::create_directories(scene2.parent_path());
+    std::ofstream(scene2) << R"({
+  "frames": {"start": 1, "end": 2},
+  "objects": [{"primitive": {"type": "sphere", "radius": 0.5}, "resolution": 12, "color": [0.2, 0.3, 0.8]}],
+  "render": {"width": 64, "height": 48, "supersample": 1}})";
+    REQUIRE(test::runDgv("-q render " + q(scene2) + " --out " + q(dir.path() / "b")).exitCode == 0);
+    auto same = test::runDgv("imgdiff " + q(dir.path() / "a/small.0001.png") + " " + q(dir.path() / "a/small.0001.png"));
+    CHECK(same.exitCode == 0);
+    CHECK_THAT(same.output, Catch::StartsWith("PASS"));
+    auto diff = test::runDgv("imgdiff " + q(dir.path() / "a/small.0001.png") + " " + q(dir.path() / "b/small.0001.png") +
+                             " --diff-out " + q(dir.path() / "d"));
+    CHECK(diff.exitCode == 1);
+    CHECK_THAT(diff.output, Catch::StartsWith("FAIL"));
+    CHECK(fs::exists(dir.path() / "d" / "small.0001.diff.png"));
+    CHECK(fs::exists(dir.path() / "d" / "small.0001.new.png"));
+}
+
+TEST_CASE("cli: every benchmark runs and prints name: value unit lines", "[app][cli][bench]") {
+    auto r = test::runDgv("bench --quick --repeats 1");
+    INFO(r.output);
+    REQUIRE(r.exitCode == 0);
+    std::istringstream in(r.output);
+    std::string line;
+    int figures = 0;
+    while (std::getline(in, line)) {
+        if (line.rfind("dgv:", 0) == 0) continue;
+        INFO(line);
+        CHECK_THAT(line, Catch::Matches("[a-z_.0-9]+: .+"));
+        ++figures;
+    }
+    CHECK(figures >= 9);
+    CHECK_THAT(r.output, Catch::Contains("geometry.") && Catch::Contains("voxelise.") && Catch::Contains("render."));
+    auto unknown = test::runDgv("bench nonsense");
+    CHECK(unknown.exitCode == 2);
+}

@@ -1,0 +1,181 @@
+#include "base/errors.hpp"
+#include "io/scene_json.hpp"
+#include "support/helpers.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+using namespace dgv;
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* kFull = R"({
+  "name": "shot_010",
+  "frames": { "start": 5, "end": 20, "fps": 30 },
+  "substeps": 4,
+  "objects": [
+    { "name": "blob", "mesh": "meshes/blob.obj", "mesh_name": "Body",
+      "transform": { "translate": [1, 2, 3], "rotate": [0, 90, 0], "scale": 2 },
+      "voxel_size": 0.05, "color": [1, 0.5, 0], "deformable": true },
+    { "primitive": { "type": "torus", "major_radius": 1, "minor_radius": 0.25 },
+      "resolution": 40, "deformable": false }
+  ],
+  "forces": [
+    { "type": "gravity" },
+    { "type": "vortex", "position": [0, 1, 0], "axis": [0, 2, 0], "radius": 2,
+      "strength": [[1, 0], [10, 5]] }
+  ],
+  "colliders": [ { "type": "ground", "height": -1 }, { "type": "sphere", "centre": [0, 0, 0], "radius": 0.5 } ],
+  "camera": { "type": "look_at", "eye": [0, 1, 5], "target": [0, 0, 0], "fov": 40 },
+  "render": { "width": 320, "height": 240, "supersample": 1, "background": [0.5, 0.5, 0.5],
+              "transparent": true, "ground": false, "bit_depth": 16 },
+  "output": { "dir": "//renders" }
+})";
+
+std::string errorOf(const std::string& text) {
+    try {
+        parseScene(text, "dir/scene.json");
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("scene_json: a full scene maps onto the settings", "[io][scene]") {
+    SceneDesc s = parseScene(kFull, "/projects/show/scene.json");
+    CHECK(s.name == "shot_010");
+    CHECK(s.frameStart == 5);
+    CHECK(s.frameEnd == 20);
+    CHECK(s.fps == 30);
+    CHECK(s.substeps == 4);
+    REQUIRE(s.objects.size() == 2);
+    const ObjectDesc& blob = s.objects[0];
+    CHECK(blob.meshPath == "/projects/show/meshes/blob.obj");  // relative to the scene's folder
+    CHECK(blob.meshName == "Body");
+    CHECK(blob.voxel.voxelSize == 0.05);
+    CHECK(blob.transform.scale == Vec3(2, 2, 2));
+    // rotate 90 degrees about Y maps +X to -Z
+    Vec3 x = blob.transform.linear() * Vec3::UnitX();
+    CHECK((x - Vec3(0, 0, -2)).norm() < 1e-12);
+    // colours are given in sRGB and held linear
+    CHECK(blob.color.x() == Approx(1.0));
+    CHECK(blob.color.y() == Approx(0.21404).epsilon(1e-4));
+    CHECK(blob.color.z() == 0.0);
+    CHECK(s.objects[1].name == "object1");
+    CHECK(s.objects[1].isPrimitive);
+    CHECK(s.objects[1].primitive.type == PrimitiveType::Torus);
+    CHECK(s.objects[1].voxel.resolution == 40);
+    CHECK_FALSE(s.objects[1].deformable);
+    REQUIRE(s.forces.size() == 2);
+    CHECK(s.forces[0].strength.at(1) == Approx(9.81));
+    CHECK(s.forces[1].axis == Vec3::UnitY());  // normalised
+    CHECK(s.forces[1].strength.at(5.5) == Approx(2.5));
+    CHECK(s.forces[1].strength.at(100) == Approx(5));
+    REQUIRE(s.colliders.size() == 2);
+    CHECK(s.colliders[0].height == -1);
+    CHECK(s.camera.type == CameraType::LookAt);
+    CHECK(s.render.bitDepth == 16);
+    CHECK(s.render.transparent);
+    CHECK(s.output.dir == "/projects/show/renders");  // "//" is relative to the scene's folder
+}
+
+TEST_CASE("scene_json: defaults for a minimal scene", "[io][scene]") {
+    SceneDesc s = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}]})", "a/b/minimal.json");
+    CHECK(s.name == "minimal");
+    CHECK(s.frameStart == 1);
+    CHECK(s.frameEnd == 1);
+    CHECK(s.objects[0].voxel.resolution == 48);
+    CHECK(s.camera.type == CameraType::Turntable);
+    CHECK(s.output.dir == (fs::current_path() / "out" / "minimal").string());
+}
+
+TEST_CASE("scene_json: every bad input names the file, the JSON path and the problem", "[io][scene]") {
+    struct Case {
+        const char* text;
+        const char* expected;
+    };
+    const Case cases[] = {
+        {"", "dir/scene.json: malformed JSON: the file is empty"},
+        {"{\"objects\": [\n  {\"primitive\": {\"type\": \"sphere\"},}\n]}", "line 2, column"},
+        {"[1, 2]", "dir/scene.json: (top level): expected an object, got an array"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "fram": {}})",
+         "dir/scene.json: fram: unknown key (did you mean 'frames'?)"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "colour": [1,0,0]}]})",
+         "objects[0].colour: unknown key (did you mean 'color'?)"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "voxel_size": -1}]})",
+         "dir/scene.json: objects[0].voxel_size: expected a positive number, got -1"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "voxel_size": 0.1, "resolution": 8}]})",
+         "objects[0].voxel_size: give voxel_size or resolution, not both"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "resolution": 1.5}]})",
+         "objects[0].resolution: expected an integer, got 1.5"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "resolution": 100000}]})",
+         "objects[0].resolution: expected an integer in [2, 2048], got 100000"},
+        {R"({"objects": [{"primitive": {"type": "cone"}}]})",
+         "objects[0].primitive.type: expected one of 'sphere', 'box', 'torus', 'capsule', got \"cone\""},
+        {R"({"objects": [{"primitive": {"type": "sphere", "radius": "big"}}]})",
+         "objects[0].primitive.radius: expected a number, got \"big\""},
+        {R"({"objects": [{"name": "a"}]})", "objects[0]: give exactly one of 'mesh' (a file) or 'primitive'"},
+        {R"({"objects": []})", "objects: a scene needs at least one object"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "name": "a"}, {"primitive": {"type": "box"}, "name": "a"}]})",
+         "objects[1].name: duplicate object name \"a\""},
+        {R"({"objects": [{"primitive": {"type": "torus", "major_radius": 0.2, "minor_radius": 0.3}}]})",
+         "objects[0].primitive.minor_radius: must be smaller than major_radius"},
+        {R"({"objects": [{"primitive": {"type": "box", "size": [1, 0, 1]}}]})",
+         "objects[0].primitive.size[1]: expected a positive edge length"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "color": [1, 2, 0]}]})",
+         "objects[0].color[1]: expected a number in [0, 1], got 2"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "transform": {"translate": [0, 0]}}]})",
+         "objects[0].transform.translate: expected an array of 3 numbers, got an array"},
+        {R"({"frames": {"start": 10, "end": 2}, "objects": [{"primitive": {"type": "sphere"}}]})",
+         "frames.end: must be >= start (10)"},
+        {R"({"name": "my shot", "objects": [{"primitive": {"type": "sphere"}}]})", "name: use letters, digits"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "camera": {"type": "look_at", "eye": [0, 5, 0], "target": [0, 0, 0]}})",
+         "camera.up: must not be parallel to the view direction"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"bit_depth": 12}})",
+         "render.bit_depth: expected 8 or 16"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"width": 0}})",
+         "render.width: expected an integer in [16, 16384], got 0"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "forces": [{"type": "vortex", "strength": [[5, 1], [2, 1]]}]})",
+         "forces[0].strength[1]: key frames must increase"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "forces": [{"type": "gravity", "direction": [0, 0, 0]}]})",
+         "forces[0].direction: expected a non-zero direction"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "colliders": [{"type": "mesh"}]})",
+         "colliders[0].mesh: missing; a mesh collider needs a mesh file"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "substeps": 0})",
+         "substeps: expected an integer in [1, 1000], got 0"},
+    };
+    for (const Case& c : cases) {
+        INFO("scene: " << c.text);
+        std::string msg = errorOf(c.text);
+        CHECK_THAT(msg, Catch::Contains(c.expected));
+        CHECK(msg.find('\n') == std::string::npos);  // one line
+    }
+}
+
+TEST_CASE("scene_json: missing, folder and unreadable scene files", "[io][scene]") {
+    test::TempDir dir("scene_json");
+    CHECK_THROWS_WITH(loadScene(dir.path() / "nope.json"), Catch::Contains("nope.json: no such file"));
+    CHECK_THROWS_WITH(loadScene(dir.path()), Catch::Contains("is a folder, not a scene file"));
+    std::ofstream(dir.path() / "ok.json") << R"({"objects": [{"primitive": {"type": "box"}}]})";
+    CHECK(loadScene(dir.path() / "ok.json").objects.size() == 1);
+}
+
+TEST_CASE("scene_json: every shipped scene loads", "[io][scene]") {
+    int count = 0;
+    for (const auto& entry : fs::directory_iterator(test::sourcePath("scenes"))) {
+        if (entry.path().extension() != ".json") continue;
+        INFO(entry.path());
+        SceneDesc s = loadScene(entry.path());
+        CHECK_FALSE(s.objects.empty());
+        for (const ObjectDesc& o : s.objects)
+            if (!o.isPrimitive) CHECK(fs::exists(o.meshPath));
+        ++count;
+    }
+    CHECK(count >= 2);
+}
