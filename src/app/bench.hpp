@@ -14,5 +14,7 @@ struct BenchOptions {
 void geometry(std::ostream& out, const BenchOptions& options);  // bench_geometry.cpp
 void voxelise(std::ostream& out, const BenchOptions& options);  // bench_voxelise.cpp
 void render(std::ostream& out, const BenchOptions& options);    // bench_render.cpp
+void reconstruct(std::ostream& out, const BenchOptions& options);  // bench_reconstruct.cpp
+void gln(std::ostream& out, const BenchOptions& options);          // bench_gln.cpp
 
 }  // namespace dgv::bench

@@ -18,7 +18,7 @@ int runBench(const BenchCommandOptions& options) {
     const std::map<std::string, Fn> built = {
         {"geometry", bench::geometry}, {"voxelise", bench::voxelise}, {"render", bench::render}};
     const std::map<std::string, std::string> coming = {
-        {"reconstruct", "the solvers"}, {"step", "the dynamics"}, {"gln", "the linking numbers"},
+        {"reconstruct", "the solvers"}, {"gln", "the linking numbers"}, {"step", "the dynamics"},
         {"vdb", "the VDB caches"}};
     std::vector<std::string> names = options.names;
     if (names.empty())

@@ -31,6 +31,13 @@ struct ImgdiffOptions {
 };
 int runImgdiff(const ImgdiffOptions& options);
 
+struct GlnOptions {
+    std::string curveA, curveB;   ///< curve files: one "x y z" vertex per line, '#' comments
+    std::string method = "exact"; ///< exact | seed
+    double tolerance = 1.0;       ///< seed method's sampling tolerance (eqs 84-89)
+};
+int runGln(const GlnOptions& options);
+
 struct BenchCommandOptions {
     std::vector<std::string> names;
     int repeats = 3;

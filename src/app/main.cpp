@@ -55,8 +55,14 @@ int main(int argc, char** argv) {
     cSim->add_option("scene", simScene, "Scene file")->required();
     cSim->allow_extras();
 
-    auto* cGln = cli.add_subcommand("gln", "Gauss linking number of two closed curves (not built yet)");
-    cGln->allow_extras();
+    app::GlnOptions gln;
+    auto* cGln = cli.add_subcommand("gln", "Gauss linking number of two closed curves");
+    cGln->add_option("curve_a", gln.curveA, "First closed curve: one 'x y z' vertex per line")->required();
+    cGln->add_option("curve_b", gln.curveB, "Second closed curve")->required();
+    cGln->add_option("--method", gln.method, "exact or seed")->capture_default_str()
+        ->check(CLI::IsMember({"exact", "seed"}));
+    cGln->add_option("--tolerance", gln.tolerance, "Seed method's sampling tolerance")->capture_default_str()
+        ->check(CLI::PositiveNumber);
 
     app::ImgdiffOptions diff;
     auto* cDiff = cli.add_subcommand("imgdiff", "Compare two images by the golden-image rule; exit 0 if they match, 1 if not");
@@ -118,10 +124,7 @@ int main(int argc, char** argv) {
                                  "milestones; 'dgv render %s' renders the scene at rest\n", simScene.c_str());
             return kExitFailure;
         }
-        if (*cGln) {
-            std::fprintf(stderr, "dgv gln: not built yet: linking numbers are a coming milestone\n");
-            return kExitFailure;
-        }
+        if (*cGln) return app::runGln(gln);
         app::RenderOptions def;
         def.scene = app::defaultScenePath();
         return app::runRender(def);
