@@ -11,6 +11,13 @@ struct BenchOptions {
     bool quick = false;  ///< smaller problem sizes (used by the test that runs every benchmark)
 };
 
+/// Peak resident set size of this process since the last resetPeakRss(), in MiB (VmHWM);
+/// -1 where /proc is unavailable. (bench_common.cpp)
+double peakRssMiB();
+/// Starts a new peak-RSS measurement (writes 5 to /proc/self/clear_refs); cmd_bench calls it
+/// before each benchmark so that each reports its own peak.
+void resetPeakRss();
+
 void geometry(std::ostream& out, const BenchOptions& options);  // bench_geometry.cpp
 void voxelise(std::ostream& out, const BenchOptions& options);  // bench_voxelise.cpp
 void render(std::ostream& out, const BenchOptions& options);    // bench_render.cpp

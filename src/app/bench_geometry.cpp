@@ -13,20 +13,6 @@
 
 namespace dgv::bench {
 
-namespace {
-
-/// Peak resident set size of this process in MiB (VmHWM), or -1 where /proc is unavailable.
-double peakRssMiB() {
-    std::ifstream in("/proc/self/status");
-    std::string line;
-    while (std::getline(in, line)) {
-        if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-    }
-    return -1;
-}
-
-}  // namespace
-
 void geometry(std::ostream& out, const BenchOptions& options) {
     const int n = options.quick ? 64 : 128;
     const Vec3i dims(n, n, n);

@@ -1,7 +1,7 @@
 // `dgv bench render`: one turntable frame of a displaced sphere (~200k triangles) at 1920x1080
 // with 2x2 supersampling, key-light shadows and the ground, PNG-encoded to memory (8-bit).
 // Quick: 320x180 and ~20k triangles. Prints min and median over the repeats (llvmpipe timings
-// vary with machine load; see docs/render-notes.md).
+// vary with machine load; see docs/rendering.md).
 #include "app/bench.hpp"
 
 #include "io/png.hpp"

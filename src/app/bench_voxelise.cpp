@@ -14,26 +14,6 @@
 
 namespace dgv::bench {
 
-namespace {
-
-/// Peak resident set size (VmHWM) in MiB, or -1 where /proc is unavailable.
-double peakRssMiB() {
-    std::ifstream in("/proc/self/status");
-    std::string key;
-    while (in >> key) {
-        if (key == "VmHWM:") {
-            double kib = 0;
-            in >> kib;
-            return kib / 1024;
-        }
-        std::string rest;
-        std::getline(in, rest);
-    }
-    return -1;
-}
-
-}  // namespace
-
 void voxelise(std::ostream& out, const BenchOptions& options) {
     // 2 * major * minor triangles: 316 x 158 -> 99,856; 100 x 50 -> 10,000.
     const int major = options.quick ? 100 : 316, minor = options.quick ? 50 : 158;

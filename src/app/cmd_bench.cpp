@@ -32,7 +32,12 @@ int runBench(const BenchCommandOptions& options) {
     bo.repeats = options.repeats;
     bo.quick = options.quick;
     std::cout << "bench.threads: " << tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) << " threads" << std::endl;
-    for (const std::string& n : names) built.at(n)(std::cout, bo);
+    for (const std::string& n : names) {
+        std::cout.flags(std::ios::fmtflags{});  // each benchmark starts with default formatting
+        std::cout.precision(6);
+        bench::resetPeakRss();
+        built.at(n)(std::cout, bo);
+    }
     return kExitOk;
 }
 

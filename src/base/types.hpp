@@ -4,6 +4,8 @@
 /// edges (io/vdb_write, render/). See docs/conventions.md.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>  // cross products and rotations are used everywhere; an undeclared
+                            // cross() compiles but fails to link
 
 #include <cstdint>
 #include <limits>

@@ -20,7 +20,7 @@
 #include <sstream>
 #include <utility>
 
-// The algorithm and its guarantees: docs/math-voxelise.md.
+// The algorithm and its guarantees: docs/math.md ("Voxelisation").
 
 namespace dgv {
 
@@ -42,7 +42,7 @@ constexpr Index kMaxAxisPoints = 16384;
 /// Fixed-point steps per lattice step for the exact 2-D predicates (2^14).
 constexpr std::int64_t kFixedScale = 1 << 14;
 /// Boundary components beyond which the ray counts are not trusted anywhere (section 4 of
-/// docs/math-voxelise.md) and every grid point gets the winding number.
+/// docs/math.md ("Voxelisation")) and every grid point gets the winding number.
 constexpr std::size_t kMaxHoles = 16;
 /// Far-field opening criterion of the winding-number tree: a node is summarised by its dipole
 /// when its distance exceeds kBeta times its radius.

@@ -3,7 +3,7 @@
 /// @brief Voxel parametrisation (seed section 2): the material points of a mesh are the lattice
 /// points whose voxel centre is inside it. Inside means generalised winding number w(x) >= 0.5
 /// (Jacobson et al. 2013), which is exact (0 or 1) for closed meshes and degrades gracefully on
-/// small holes, self-intersections and non-manifold input. See docs/math-voxelise.md for the
+/// small holes, self-intersections and non-manifold input. See docs/math.md ("Voxelisation") for the
 /// algorithm (exact signed ray-crossing counts, the winding number only near holes), the lattice
 /// placement and the guarantees.
 
