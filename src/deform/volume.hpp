@@ -1,0 +1,89 @@
+#pragma once
+/// @file volume.hpp
+/// @brief Exact volumes of the lattice cells and the volume projection (seed eqs 40-44: local
+/// volume conservation, applied to the cells of the lattice; docs/math.md, "Cell volumes and
+/// the volume projection").
+///
+/// A cell is a unit cube of the lattice whose 8 corners are all material points. Its shape is
+/// the trilinear image of [0,1]^3: x(s) = sum_k w_k(s) x_k, corner k at offset
+/// (k & 1, (k >> 1) & 1, (k >> 2) & 1) from the cell's lowest corner u, w_k the trilinear
+/// weights. Its volume is the EXACT integral of det(dx/ds) over [0,1]^3 (bilinear faces; a cubic
+/// in the corner positions): det J has degree <= 2 in each s_a, so the 2x2x2 Gauss-Legendre
+/// rule is exact (closed form, not an approximation). Rest cell: h^3; any affine map x -> A x + b
+/// scales it by det A (both to round-off); positive for right-handed (non-inverted) cells.
+
+#include "base/types.hpp"
+#include "geom/lattice.hpp"
+
+#include <array>
+#include <vector>
+
+namespace dgv {
+
+/// The cells of a lattice, numbered in increasing linear grid index of their lowest corner.
+struct LatticeCells {
+    std::vector<std::array<Index, 8>> corners;  ///< #C point ids, corner order as above
+    std::vector<Vec3i> lowest;                  ///< #C lowest corner u of each cell
+    std::vector<Index> cellOfGrid;              ///< lat.dims.prod() entries: cell id or -1
+    Vec3i dims = Vec3i::Zero();                 ///< the lattice's grid dims
+    Index size() const { return static_cast<Index>(corners.size()); }
+};
+
+/// All cells of `lat` (deterministic order; parallel).
+LatticeCells buildCells(const Lattice& lat);
+
+/// Exact volume of the trilinear hexahedron with corners x[0..7] (order above), world units^3.
+Real hexVolume(const std::array<Vec3, 8>& x);
+
+/// Exact volume and its gradient d V / d x_k (8 vectors, world units^2): the 2x2x2 Gauss rule is
+/// exact for the gradient too.
+Real hexVolumeGradient(const std::array<Vec3, 8>& x, std::array<Vec3, 8>& gradient);
+
+/// #C exact cell volumes of `positions` (#P, world units).
+std::vector<Real> cellVolumes(const LatticeCells& cells, const std::vector<Vec3>& positions);
+
+/// Sum of the cell volumes (deterministic: fixed blocks, combined in order).
+Real totalVolume(const LatticeCells& cells, const std::vector<Vec3>& positions);
+
+struct VolumeProjectionSettings {
+    int maxIterations = 8;           ///< Gauss-Newton iterations
+    Real tolerance = 1e-12;          ///< stop when max_c |V_c / V0_c - 1| <= tolerance
+    Real linearTolerance = 1e-8;     ///< relative residual of each linear solve (CG)
+    int maxLinearIterations = 2000;  ///< CG iterations per Gauss-Newton iteration
+    /// Precondition the CG with the multigrid of solve/multigrid.hpp (built on each Gauss-Newton
+    /// iteration's normal matrix); false: Jacobi, far more iterations on large lattices.
+    bool multigrid = true;
+};
+
+/// Outcome of projectVolumes. Numerical trouble (no convergence) is reported, not thrown.
+struct [[nodiscard]] VolumeProjectionReport {
+    bool converged = false;
+    int iterations = 0;          ///< Gauss-Newton iterations taken
+    int linearIterations = 0;    ///< CG iterations, summed over the Gauss-Newton iterations
+    Real maxErrorBefore = 0;     ///< max_c |V_c / V0_c - 1| on entry, over the constrainable cells
+    Real maxErrorAfter = 0;      ///< ... on return (cells with all 8 corners pinned are left out:
+                                 ///< nothing may move them)
+    Real maxMove = 0;            ///< largest |x_new - x_old| of a point, world units
+    Index unconstrainable = 0;   ///< cells whose 8 corners are all pinned (left out)
+};
+
+/// Volume projection: moves the points minimally (least squares, Euclidean) so that every
+/// cell's exact volume returns to restVolumes[c]. Gauss-Newton on the #C constraints
+/// V_c(x) - V0_c = 0: each step is the minimum-norm solution dx = -J^T (J J^T)^-1 r, with the
+/// sparse normal matrix J J^T on the cell-adjacency graph (27-cell stencil) solved by conjugate
+/// gradients from zero multipliers, preconditioned by smoothed-aggregation multigrid (or Jacobi).
+/// Converges quadratically when the linear solves are accurate (2-4 iterations to 1e-13 from
+/// 1e-2 errors). Pinned points (pinned[p] != 0; may be empty = none) never move; cells with all
+/// corners pinned are left out (counted in `unconstrainable`).
+/// @param[in]     cells        cells of the lattice the positions belong to
+/// @param[in]     restVolumes  #C target volumes (> 0), world units^3
+/// @param[in]     pinned       #P flags, or empty
+/// @param[in,out] positions    #P world positions, updated in place
+/// Deterministic for any thread count.
+VolumeProjectionReport projectVolumes(const LatticeCells& cells,
+                                      const std::vector<Real>& restVolumes,
+                                      const std::vector<unsigned char>& pinned,
+                                      std::vector<Vec3>& positions,
+                                      const VolumeProjectionSettings& settings = {});
+
+}  // namespace dgv

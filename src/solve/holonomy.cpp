@@ -1,0 +1,151 @@
+#include "solve/holonomy.hpp"
+
+#include "base/check.hpp"
+#include "base/parallel.hpp"
+
+#include <Eigen/LU>
+#include <unsupported/Eigen/MatrixFunctions>
+
+#include <algorithm>
+#include <cmath>
+
+namespace dgv {
+
+namespace {
+
+inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
+
+PointConnection pointConnection(const std::array<std::vector<Mat3>, 3>& christoffel, Index p) {
+    return {christoffel[0][at(p)], christoffel[1][at(p)], christoffel[2][at(p)]};
+}
+
+/// Slot of the neighbour q of p (checked: consecutive path points must be 6-neighbours).
+int slotBetween(const Lattice& lat, Index p, Index q) {
+    DGV_CHECK(p >= 0 && p < lat.size());
+    DGV_CHECK(q >= 0 && q < lat.size());
+    for (int s = 0; s < 6; ++s)
+        if (lat.neighbours[at(p)][static_cast<std::size_t>(s)] == q) return s;
+    DGV_CHECK_EQ(p, q);  // not neighbours: a bug in the caller's path
+    return -1;
+}
+
+/// Generator S of the directed edge (p, slot).
+Mat3 generatorOf(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel, Index p,
+                 int slot) {
+    const Index q = lat.neighbours[at(p)][static_cast<std::size_t>(slot)];
+    return edgeGenerator(pointConnection(christoffel, p), pointConnection(christoffel, q), slot / 2,
+                         (slot & 1) ? 1 : -1);
+}
+
+}  // namespace
+
+Mat3 connectionMatrix(const PointConnection& gamma, int axis) {
+    Mat3 g;
+    for (int c = 0; c < 3; ++c)
+        for (int a = 0; a < 3; ++a) g(c, a) = gamma[static_cast<std::size_t>(c)](a, axis);
+    return g;
+}
+
+Mat3 edgeGenerator(const PointConnection& gammaP, const PointConnection& gammaQ, int axis,
+                   int sign) {
+    return Real(0.5 * sign) * (connectionMatrix(gammaP, axis) + connectionMatrix(gammaQ, axis));
+}
+
+void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1) {
+    // Scale S by 2^-k until its 1-norm is <= 1/4, where a Taylor polynomial of phi1 of degree
+    // <= 13 is exact to round-off; exp(X) = 1 + X phi1(X) exactly; then square back up
+    // with exp(2X) = exp(X)^2 and phi1(2X) = phi1(X) (exp(X) + 1) / 2 (all commute).
+    const Real norm = S.cwiseAbs().colwise().sum().maxCoeff();
+    int k = 0;
+    if (norm > Real(0.25)) k = std::min(60, int(std::ceil(std::log2(norm / Real(0.25)))));
+    const Mat3 X = std::ldexp(Real(1), -k) * S;
+    // Degree d: the first omitted term |X|^(d+1) / (d+2)! below 2^-56 (d <= 13 for |X| <= 1/4).
+    const Real x = std::min(norm, Real(0.25));
+    int degree = 1;
+    for (Real term = x * x / Real(6); degree < 13 && term > Real(1.4e-17); ++degree)
+        term *= x / Real(degree + 3);
+    // Horner: phi1 = sum_{j=0}^{degree} X^j / (j+1)!
+    Mat3 p = Mat3::Identity();
+    for (int j = degree; j >= 1; --j) p = Mat3::Identity() + (X * p) / Real(j + 1);
+    Mat3 e = Mat3::Identity() + X * p;
+    for (int i = 0; i < k; ++i) {
+        p = Real(0.5) * p * (e + Mat3::Identity());
+        e = e * e;
+    }
+    expS = e;
+    phi1 = p;
+}
+
+void edgeTransport(const Mat3& generator, int axis, Mat3& expS, Vec3& step) {
+    Mat3 phi1;
+    expPhi1(generator, expS, phi1);
+    step = phi1.col(axis);
+}
+
+Mat3 pathHolonomy(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel,
+                  const std::vector<Index>& path) {
+    Mat3 h = Mat3::Identity();
+    for (std::size_t k = 1; k < path.size(); ++k) {
+        const int slot = slotBetween(lat, path[k - 1], path[k]);
+        if (slot < 0) continue;
+        const Mat3 s = generatorOf(lat, christoffel, path[k - 1], slot);
+        h = Mat3((-s).exp()) * h;  // later steps on the left (eq 18)
+    }
+    return h;
+}
+
+std::vector<Vec3> solveAlongPath(const Lattice& lat,
+                                 const std::array<std::vector<Mat3>, 3>& christoffel,
+                                 const std::vector<Mat3>& driving, const std::vector<Index>& path,
+                                 const Vec3& start) {
+    DGV_CHECK_EQ(static_cast<Index>(driving.size()), lat.size());
+    std::vector<Vec3> f;
+    if (path.empty()) return f;
+    f.reserve(path.size());
+    f.push_back(start);
+    for (std::size_t k = 1; k < path.size(); ++k) {
+        const Index p = path[k - 1], q = path[k];
+        const int slot = slotBetween(lat, p, q);
+        if (slot < 0) {  // repeated point: a step of length zero
+            f.push_back(f.back());
+            continue;
+        }
+        const int axis = slot / 2;
+        const Real sign = (slot & 1) ? 1 : -1;
+        const Mat3 hop = (-generatorOf(lat, christoffel, p, slot)).exp();  // H(λ_k, λ_{k-1})
+        const Vec3 gp = sign * driving[at(p)].col(axis);                   // G^b (eq 16)
+        const Vec3 gq = sign * driving[at(q)].col(axis);
+        f.push_back(hop * f.back() + Real(0.5) * (hop * gp + gq));
+    }
+    return f;
+}
+
+EdgeTransports computeEdgeTransports(const Lattice& lat,
+                                     const std::array<std::vector<Mat3>, 3>& christoffel) {
+    for (const auto& g : christoffel) DGV_CHECK_EQ(static_cast<Index>(g.size()), lat.size());
+    EdgeTransports e;
+    const std::size_t n = at(lat.size());
+    for (int b = 0; b < 3; ++b) {
+        e.forward[at(b)].assign(n, Mat3::Zero());
+        e.backward[at(b)].assign(n, Mat3::Zero());
+        e.stepFrom[at(b)].assign(n, Vec3::Zero());
+        e.stepTo[at(b)].assign(n, Vec3::Zero());
+    }
+    parallelFor(lat.size(), [&](Index p) {
+        for (int b = 0; b < 3; ++b) {
+            if (lat.neighbours[at(p)][at(2 * b + 1)] == kNoPoint) continue;
+            const Mat3 s = generatorOf(lat, christoffel, p, 2 * b + 1);
+            Mat3 t;
+            Vec3 a;
+            edgeTransport(s, b, t, a);
+            const Mat3 tInv = t.inverse();
+            e.forward[at(b)][at(p)] = t;
+            e.backward[at(b)][at(p)] = tInv;
+            e.stepFrom[at(b)][at(p)] = a;
+            e.stepTo[at(b)][at(p)] = tInv * a;  // φ1(-S) = exp(-S) φ1(S)
+        }
+    }, 256);
+    return e;
+}
+
+}  // namespace dgv

@@ -1,0 +1,64 @@
+#pragma once
+/// @file sparse_solve.hpp
+/// @brief The production position solve (docs/math.md, "The production solver"): positions that
+/// best satisfy every edge step, min Σ_edges |x(q) - x(p) - D_pq|^2 with the fixed points held,
+/// i.e. the lattice graph Laplacian L x = b on the free points (b_p = Σ_{q fixed} x(q) - Σ_q D_pq,
+/// D_pq = positionStep of holonomy.hpp). The fixed point of every gather iteration of gather.hpp
+/// is the same x.
+///
+/// L depends only on the lattice and on which points are fixed, never on the connection, so its
+/// multigrid hierarchy (multigrid.hpp: smoothed aggregation, 3x3x3 aggregates) is built ONCE per
+/// lattice and fixed set and reused for every step; each solve is conjugate gradients on the
+/// three world axes together, preconditioned by one V-cycle per iteration and warm-started from
+/// the positions passed in (the previous step's, or the path integration's).
+/// Residual: the position residual of gather.hpp, |b - L x| / sqrt(Σ_p n_p Σ_q |D_pq|^2).
+
+#include "base/types.hpp"
+#include "geom/lattice.hpp"
+#include "solve/holonomy.hpp"
+#include "solve/solve_report.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace dgv {
+
+class PoissonSolver {
+public:
+    /// Builds L on the free points (fixed[p] == 0) of `lat` and its multigrid hierarchy. Every
+    /// 6-connected component needs at least one fixed point, else L is singular and ok() is
+    /// false (solve() then reports not converged and leaves the positions alone).
+    PoissonSolver(const Lattice& lat, const std::vector<unsigned char>& fixed);
+    ~PoissonSolver();
+    PoissonSolver(const PoissonSolver&) = delete;
+    PoissonSolver& operator=(const PoissonSolver&) = delete;
+
+    bool ok() const;
+    double setupSeconds() const;  ///< wall-clock time of building L and the hierarchy
+    Index freeCount() const;
+    int levels() const;           ///< multigrid levels (1 = direct solve only)
+    /// Whether this solver was made for a lattice of this size and this fixed mask.
+    bool matches(const Lattice& lat, const std::vector<unsigned char>& fixed) const;
+
+    /// Solves for the free positions given frames (#P) and the edge transports, starting from
+    /// the values in `positions` (#P, in/out; fixed points keep theirs). converged = residual
+    /// <= tolerance within maxIterations conjugate-gradient iterations (each one V-cycle).
+    /// Keeps its work arrays between calls: not for concurrent calls on one solver.
+    SolveReport solve(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                      std::vector<Vec3>& positions, Real tolerance = Real(1e-8),
+                      int maxIterations = 200) const;
+
+    /// The Path positions (reconstruct.hpp) from the fixed points, which must already hold
+    /// their values in `positions` (#P, in/out): x(q) = x(parent) + D_parent,q along the
+    /// breadth-first tree from the fixed points (point order, slot order), the tree cached at
+    /// construction and integrated one BFS layer at a time in parallel. Identical to
+    /// integratePositionsAlongTree with the same fixed set.
+    void pathPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                       std::vector<Vec3>& positions) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> mImpl;
+};
+
+}  // namespace dgv
