@@ -1,0 +1,5 @@
+# src/dynamics: force fields and the motion they drive (seed eqs 64-82).
+list(APPEND DGV_DYNAMICS_SOURCES
+  dynamics/forces.cpp
+  dynamics/body.cpp
+)
