@@ -1,9 +1,17 @@
 #pragma once
 /// @file gl_context.hpp
-/// @brief (internal to render/) An OSMesa core-profile context (gallium llvmpipe). No GL
-/// headers here: the context is an opaque pointer. Rendering goes to the caller's FBOs; the
-/// OSMesa buffer itself is a 16x16 scratch that is never read.
+/// @brief (internal to render/) An OpenGL 3.3+ core-profile context on Mesa's llvmpipe, from
+/// one of two backends: OSMesa, or EGL on a software device / the surfaceless platform (OSMesa
+/// is gone from Mesa 25.1). No GL headers here: the context is opaque. Rendering goes to the
+/// caller's FBOs; neither backend has a default framebuffer that dgv reads.
+///
+/// GL entry points come from libOSMesa (GL_GLEXT_PROTOTYPES). Mesa's libOSMesa and its EGL
+/// driver share libglapi's current-context dispatch, so the same entry points reach whichever
+/// backend's context is current; GlContext checks that (GL_RENDERER must be non-null).
 
+#include "render/renderer.hpp"
+
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,9 +19,10 @@ namespace dgv::render {
 
 class GlContext {
 public:
-    /// Creates a 3.3+ core context (OSMesa returns 4.5 on Mesa 22) and makes it current.
-    /// RuntimeError when OSMesa refuses, or GL_RENDERER is null (e.g. libGL linked by mistake).
-    GlContext();
+    /// Creates a context with `backend` (Auto: OSMesa, then EGL) and makes it current.
+    /// RuntimeError naming the backend(s) and why when none works, or when GL calls do not
+    /// reach the context (GL_RENDERER null: e.g. libGL linked by mistake).
+    explicit GlContext(GlBackend backend = GlBackend::Auto);
     ~GlContext();
     GlContext(const GlContext&) = delete;
     GlContext& operator=(const GlContext&) = delete;
@@ -23,9 +32,17 @@ public:
 
     /// "llvmpipe (LLVM 15.0.6, 256 bits); 4.5 (Core Profile) Mesa 22.3.6".
     const std::string& description() const { return mDescription; }
+    /// The backend in use (never Auto).
+    GlBackend backend() const { return mBackend; }
 
 private:
-    void* mContext = nullptr;  // OSMesaContext
+    void createOsMesa();
+    void createEgl();
+    void destroy() noexcept;
+
+    GlBackend mBackend = GlBackend::OsMesa;
+    void* mContext = nullptr;  // OSMesaContext or EGLContext
+    void* mDisplay = nullptr;  // EGLDisplay
     std::vector<unsigned char> mScratch;
     std::string mDescription;
 };

@@ -81,15 +81,138 @@ struct MeshSlot {
     std::size_t vboCapacity = 0;  // bytes
     std::size_t eboCapacity = 0;  // bytes
     GLsizei indexCount = 0;
-    // Topology cache: the triangles last uploaded, and the vertex -> triangle map (CSR) used
-    // to sum the area-weighted normals in a fixed order (deterministic, parallel).
+    // Topology cache, rebuilt only when the triangle list (or the crease angle) changes: the
+    // triangles last seen, the render vertices (a mesh vertex is split into one render vertex
+    // per smoothing group around it), the triangles over render vertices, and the render
+    // vertex -> triangle map (CSR) used to sum the area-weighted normals in a fixed order.
     std::vector<std::array<int, 3>> triangles;
     std::size_t vertexCount = 0;
-    std::vector<int> adjacencyStart;
-    std::vector<int> adjacency;
-    std::vector<float> interleaved;  // position xyz, normal xyz per vertex
-    std::vector<Vec3f> faceNormals;  // area-weighted (cross product of two edges)
+    double creaseDegrees = -1;
+    bool closed = false;                        // every edge shared by exactly 2 opposite triangles
+    bool inverted = false;                      // closed but CW from outside (negative volume)
+    std::vector<int> sourceVertex;              // render vertex -> mesh vertex
+    std::vector<std::array<int, 3>> renderTriangles;
+    std::vector<int> adjacencyStart;            // render vertex -> range in `adjacency`
+    std::vector<int> adjacency;                 // triangles of the render vertex's group
+    std::vector<float> interleaved;             // position xyz, normal xyz, scalar per render vertex
+    std::vector<Vec3f> faceNormals;             // area-weighted (cross product of two edges)
 };
+
+/// True when every directed edge (a, b) of the triangles is matched by exactly one (b, a) and
+/// appears once: a closed, consistently oriented 2-manifold, whose back faces are never seen.
+bool isClosedOriented(const std::vector<std::array<int, 3>>& triangles) {
+    if (triangles.empty()) return false;
+    std::vector<std::pair<int, int>> edges;
+    edges.reserve(triangles.size() * 3);
+    for (const auto& t : triangles)
+        for (int k = 0; k < 3; ++k) edges.emplace_back(t[k], t[(k + 1) % 3]);
+    std::sort(edges.begin(), edges.end());
+    if (std::adjacent_find(edges.begin(), edges.end()) != edges.end()) return false;
+    for (const auto& [a, b] : edges)
+        if (a == b || !std::binary_search(edges.begin(), edges.end(), std::make_pair(b, a))) return false;
+    return true;
+}
+
+/// Splits mesh vertices along crease edges. Around each vertex, two triangles that share an
+/// edge through it belong to the same smoothing group when the angle between their face
+/// normals is at most `creaseDegrees`; each group becomes one render vertex, whose normal is
+/// the area-weighted sum over the group. Groups are numbered by their first triangle in the
+/// vertex's (ascending) triangle list, render vertices by (mesh vertex, group): deterministic.
+/// `faceNormals` are the unnormalised normals of the positions the split is decided on.
+void buildRenderTopology(MeshSlot& slot, std::size_t nv, const std::vector<Vec3f>& faceNormals,
+                         double creaseDegrees) {
+    const auto& tris = slot.triangles;
+    const std::size_t nt = tris.size();
+    // mesh vertex -> incident triangles, ascending
+    std::vector<int> start(nv + 1, 0);
+    for (const auto& t : tris)
+        for (int k = 0; k < 3; ++k) ++start[static_cast<std::size_t>(t[k]) + 1];
+    for (std::size_t i = 0; i < nv; ++i) start[i + 1] += start[i];
+    std::vector<int> fan(static_cast<std::size_t>(start[nv]));
+    {
+        std::vector<int> fill(start.begin(), start.end() - 1);
+        for (std::size_t f = 0; f < nt; ++f)
+            for (int k = 0; k < 3; ++k)
+                fan[static_cast<std::size_t>(fill[static_cast<std::size_t>(tris[f][k])]++)] = static_cast<int>(f);
+    }
+    const bool split = creaseDegrees < 180.0;
+    const float cosCrease = static_cast<float>(std::cos(creaseDegrees * 3.14159265358979323846 / 180.0));
+    // Per corner (f, k): the group index of triangle f around its vertex t[k].
+    std::vector<int> cornerGroup(nt * 3, 0);
+    std::vector<int> groupCount(nv, 1);
+    if (split) {
+        std::vector<int> parent;
+        for (std::size_t v = 0; v < nv; ++v) {
+            const int b = start[v], e = start[v + 1], n = e - b;
+            if (n <= 1) continue;
+            parent.resize(static_cast<std::size_t>(n));
+            for (int i = 0; i < n; ++i) parent[static_cast<std::size_t>(i)] = i;
+            auto find = [&](int i) {
+                while (parent[static_cast<std::size_t>(i)] != i) i = parent[static_cast<std::size_t>(i)];
+                return i;
+            };
+            for (int i = 0; i < n; ++i) {
+                const auto& ti = tris[static_cast<std::size_t>(fan[static_cast<std::size_t>(b + i)])];
+                const Vec3f ni = faceNormals[static_cast<std::size_t>(fan[static_cast<std::size_t>(b + i)])];
+                for (int j = i + 1; j < n; ++j) {
+                    const auto& tj = tris[static_cast<std::size_t>(fan[static_cast<std::size_t>(b + j)])];
+                    // Do they share an edge through v (another common vertex)?
+                    bool shareEdge = false;
+                    for (int a = 0; a < 3 && !shareEdge; ++a)
+                        if (ti[a] != static_cast<int>(v))
+                            for (int c = 0; c < 3; ++c)
+                                if (tj[c] == ti[a]) shareEdge = true;
+                    if (!shareEdge) continue;
+                    const Vec3f nj = faceNormals[static_cast<std::size_t>(fan[static_cast<std::size_t>(b + j)])];
+                    const float li = ni.norm(), lj = nj.norm();
+                    // Degenerate triangles join any group (they add nothing to the normal).
+                    const bool smooth = !(li > 0 && lj > 0) || ni.dot(nj) >= cosCrease * li * lj;
+                    if (smooth) {
+                        const int ri = find(i), rj = find(j);
+                        if (ri != rj) parent[static_cast<std::size_t>(std::max(ri, rj))] = std::min(ri, rj);
+                    }
+                }
+            }
+            // Number the groups by first appearance; record each corner's group.
+            std::vector<int> label(static_cast<std::size_t>(n), -1);
+            int groups = 0;
+            for (int i = 0; i < n; ++i) {
+                const int r = find(i);
+                if (label[static_cast<std::size_t>(r)] < 0) label[static_cast<std::size_t>(r)] = groups++;
+                const int f = fan[static_cast<std::size_t>(b + i)];
+                for (int k = 0; k < 3; ++k)
+                    if (tris[static_cast<std::size_t>(f)][k] == static_cast<int>(v))
+                        cornerGroup[static_cast<std::size_t>(f) * 3 + static_cast<std::size_t>(k)] =
+                            label[static_cast<std::size_t>(r)];
+            }
+            groupCount[v] = groups;
+        }
+    }
+    // Render vertices: (v, group) in order.
+    std::vector<int> firstRender(nv + 1, 0);
+    for (std::size_t v = 0; v < nv; ++v) firstRender[v + 1] = firstRender[v] + groupCount[v];
+    const std::size_t nr = static_cast<std::size_t>(firstRender[nv]);
+    slot.sourceVertex.resize(nr);
+    for (std::size_t v = 0; v < nv; ++v)
+        for (int g = 0; g < groupCount[v]; ++g)
+            slot.sourceVertex[static_cast<std::size_t>(firstRender[v] + g)] = static_cast<int>(v);
+    slot.renderTriangles.resize(nt);
+    for (std::size_t f = 0; f < nt; ++f)
+        for (int k = 0; k < 3; ++k)
+            slot.renderTriangles[f][static_cast<std::size_t>(k)] =
+                firstRender[static_cast<std::size_t>(tris[f][k])] + cornerGroup[f * 3 + static_cast<std::size_t>(k)];
+    slot.adjacencyStart.assign(nr + 1, 0);
+    for (const auto& t : slot.renderTriangles)
+        for (int k = 0; k < 3; ++k) ++slot.adjacencyStart[static_cast<std::size_t>(t[k]) + 1];
+    for (std::size_t i = 0; i < nr; ++i) slot.adjacencyStart[i + 1] += slot.adjacencyStart[i];
+    slot.adjacency.assign(static_cast<std::size_t>(slot.adjacencyStart[nr]), 0);
+    std::vector<int> fill(slot.adjacencyStart.begin(), slot.adjacencyStart.end() - 1);
+    for (std::size_t f = 0; f < nt; ++f)
+        for (int k = 0; k < 3; ++k)
+            slot.adjacency[static_cast<std::size_t>(fill[static_cast<std::size_t>(slot.renderTriangles[f][k])]++)] =
+                static_cast<int>(f);
+    slot.closed = isClosedOriented(tris);
+}
 
 }  // namespace
 
@@ -108,6 +231,8 @@ std::vector<std::string> RenderSettings::validate() const {
         problems.push_back("supersample: width and height times supersample must stay within " +
                            std::to_string(kMaxTextureSize));
     }
+    if (!(creaseDegrees >= 0 && creaseDegrees <= 180))
+        problems.push_back("crease_degrees: expected 0..180, got " + std::to_string(creaseDegrees));
     for (int i = 0; i < 3; ++i) {
         if (!(background[i] >= 0 && background[i] <= 1)) {
             problems.push_back("background: expected linear RGB components in [0,1]");
@@ -158,14 +283,15 @@ struct Renderer::Impl {
     std::vector<std::uint16_t> readback;
     Renderer::Timings timings;
 
-    explicit Impl(const RenderSettings& s) : settings(s) {
+    explicit Impl(const RenderSettings& s) : settings(s), context(s.backend) {
         const std::string dir = s.shaderDir.empty() ? findShaderDir() : s.shaderDir;
         meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl");
         groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl");
         groundPlainProgram =
             ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", "#define DGV_SHADOWS 0\n");
         shadowProgram = ShaderProgram(dir, "shadow.vert", "shadow.frag");
-        resolveProgram = ShaderProgram(dir, "resolve.vert", "resolve.frag");
+        resolveProgram = ShaderProgram(dir, "resolve.vert", "resolve.frag", "",
+                                       "#define DGV_FACTOR " + std::to_string(s.supersample) + "\n");
 
         glGenVertexArrays(1, &emptyVao);
         glGenVertexArrays(1, &groundVao);
@@ -198,6 +324,7 @@ struct Renderer::Impl {
         glBindTexture(GL_TEXTURE_2D, shadowDepth);
         glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, kShadowMapSize, kShadowMapSize, 0,
                      GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+        // Linear: resolve.frag sums the box from bilinear samples at 2x2 block centres.
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -269,8 +396,11 @@ struct Renderer::Impl {
         glGenTextures(1, &sceneColour);
         glBindTexture(GL_TEXTURE_2D, sceneColour);
         glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, sw, sh, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        // Linear: resolve.frag sums the box from bilinear samples at 2x2 block centres.
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
         glGenRenderbuffers(1, &sceneDepth);
         glBindRenderbuffer(GL_RENDERBUFFER, sceneDepth);
@@ -298,9 +428,10 @@ struct Renderer::Impl {
         targetFactor = factor;
     }
 
-    /// Area-weighted vertex normals (sum of the unnormalised face normals around each vertex,
-    /// in triangle order) and the interleaved vertex data, then the upload.
+    /// Area-weighted vertex normals (sum of the unnormalised face normals of each render
+    /// vertex's smoothing group, in triangle order), the interleaved vertex data, the upload.
     void uploadMesh(MeshSlot& slot, const DrawMesh& mesh) {
+        constexpr int kStride = 7;  // position xyz, normal xyz, scalar
         if (!slot.vao) {
             glGenVertexArrays(1, &slot.vao);
             glGenBuffers(1, &slot.vbo);
@@ -308,10 +439,13 @@ struct Renderer::Impl {
             glBindVertexArray(slot.vao);
             glBindBuffer(GL_ARRAY_BUFFER, slot.vbo);
             glEnableVertexAttribArray(0);
-            glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+            glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, kStride * sizeof(float), nullptr);
             glEnableVertexAttribArray(1);
-            glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+            glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, kStride * sizeof(float),
                                   reinterpret_cast<const void*>(3 * sizeof(float)));
+            glEnableVertexAttribArray(2);
+            glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, kStride * sizeof(float),
+                                  reinterpret_cast<const void*>(6 * sizeof(float)));
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, slot.ebo);  // recorded in the VAO
             glBindVertexArray(0);
         }
@@ -324,21 +458,9 @@ struct Renderer::Impl {
                                                        " of a mesh with " + std::to_string(nv));
             }
         }
-        const bool topologyChanged = slot.vertexCount != nv || slot.triangles != mesh.triangles;
-        if (topologyChanged) {
-            slot.triangles = mesh.triangles;
-            slot.vertexCount = nv;
-            slot.adjacencyStart.assign(nv + 1, 0);
-            for (const auto& t : mesh.triangles)
-                for (int k = 0; k < 3; ++k) ++slot.adjacencyStart[static_cast<std::size_t>(t[k]) + 1];
-            for (std::size_t i = 0; i < nv; ++i) slot.adjacencyStart[i + 1] += slot.adjacencyStart[i];
-            slot.adjacency.assign(static_cast<std::size_t>(slot.adjacencyStart[nv]), 0);
-            std::vector<int> fill(slot.adjacencyStart.begin(), slot.adjacencyStart.end() - 1);
-            for (std::size_t f = 0; f < nt; ++f)
-                for (int k = 0; k < 3; ++k)
-                    slot.adjacency[static_cast<std::size_t>(fill[static_cast<std::size_t>(mesh.triangles[f][k])]++)] =
-                        static_cast<int>(f);
-        }
+        if (!mesh.scalar.empty() && mesh.scalar.size() != nv)
+            throw InputError("", "render", "the per-vertex scalar has " + std::to_string(mesh.scalar.size()) +
+                                               " values for a mesh with " + std::to_string(nv) + " vertices");
         slot.faceNormals.resize(nt);
         parallelFor(static_cast<Index>(nt), [&](Index f) {
             const auto& t = mesh.triangles[static_cast<std::size_t>(f)];
@@ -346,22 +468,42 @@ struct Renderer::Impl {
             const Vec3 e2 = mesh.positions[static_cast<std::size_t>(t[2])] - mesh.positions[static_cast<std::size_t>(t[0])];
             slot.faceNormals[static_cast<std::size_t>(f)] = e1.cross(e2).cast<float>();
         });
-        slot.interleaved.resize(nv * 6);
-        parallelFor(static_cast<Index>(nv), [&](Index vi) {
-            const std::size_t v = static_cast<std::size_t>(vi);
+        const bool topologyChanged = slot.vertexCount != nv || slot.triangles != mesh.triangles ||
+                                     slot.creaseDegrees != settings.creaseDegrees;
+        if (topologyChanged) {
+            // The split is decided on the positions of this frame and kept while the triangles
+            // stay the same, so a deforming mesh keeps its vertex count and index buffer.
+            slot.triangles = mesh.triangles;
+            slot.vertexCount = nv;
+            slot.creaseDegrees = settings.creaseDegrees;
+            buildRenderTopology(slot, nv, slot.faceNormals, settings.creaseDegrees);
+            // A closed mesh wound inside out (negative signed volume) culls its front faces
+            // instead: the visible outside is then its back faces, whose normals the shader flips.
+            double volume = 0;
+            for (const auto& t : mesh.triangles)
+                volume += mesh.positions[static_cast<std::size_t>(t[0])].dot(
+                    mesh.positions[static_cast<std::size_t>(t[1])].cross(mesh.positions[static_cast<std::size_t>(t[2])]));
+            slot.inverted = slot.closed && volume < 0;
+        }
+        const std::size_t nr = slot.sourceVertex.size();
+        slot.interleaved.resize(nr * kStride);
+        parallelFor(static_cast<Index>(nr), [&](Index ri) {
+            const std::size_t r = static_cast<std::size_t>(ri);
+            const std::size_t v = static_cast<std::size_t>(slot.sourceVertex[r]);
             Vec3f n = Vec3f::Zero();
-            for (int a = slot.adjacencyStart[v]; a < slot.adjacencyStart[v + 1]; ++a)
+            for (int a = slot.adjacencyStart[r]; a < slot.adjacencyStart[r + 1]; ++a)
                 n += slot.faceNormals[static_cast<std::size_t>(slot.adjacency[static_cast<std::size_t>(a)])];
             const float len = n.norm();
             if (len > 0 && std::isfinite(len)) n /= len;
             else n = Vec3f(0, 1, 0);
-            float* out = slot.interleaved.data() + v * 6;
+            float* out = slot.interleaved.data() + r * kStride;
             out[0] = static_cast<float>(mesh.positions[v].x());
             out[1] = static_cast<float>(mesh.positions[v].y());
             out[2] = static_cast<float>(mesh.positions[v].z());
             out[3] = n.x();
             out[4] = n.y();
             out[5] = n.z();
+            out[6] = mesh.scalar.empty() ? 0.0f : static_cast<float>(mesh.scalar[v]);
         });
 
         glBindBuffer(GL_ARRAY_BUFFER, slot.vbo);
@@ -377,24 +519,16 @@ struct Renderer::Impl {
             const std::size_t ibytes = nt * 3 * sizeof(int);
             static_assert(sizeof(std::array<int, 3>) == 3 * sizeof(int), "packed triangles");
             if (ibytes > slot.eboCapacity) {
-                glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibytes), mesh.triangles.data(),
+                glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibytes), slot.renderTriangles.data(),
                              GL_STATIC_DRAW);
                 slot.eboCapacity = ibytes;
             } else if (ibytes > 0) {
-                glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ibytes), mesh.triangles.data());
+                glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ibytes),
+                                slot.renderTriangles.data());
             }
             glBindVertexArray(0);
             slot.indexCount = static_cast<GLsizei>(nt * 3);
         }
-    }
-
-    void drawMeshes(const FrameScene& scene) {
-        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
-            if (meshes[i].indexCount == 0) continue;
-            glBindVertexArray(meshes[i].vao);
-            glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
-        }
-        glBindVertexArray(0);
     }
 
     /// Sets the lights and shadow uniforms shared by mesh.frag and ground.frag (lighting.glsl).
@@ -511,7 +645,7 @@ struct Renderer::Impl {
             lights.shadowFromWorld = bias * lightClipFromWorld;
             lights.shadows = true;
             const Real texelWorld = 2.0 * radius / kShadowMapSize;
-            lights.shadowRadius = 3.0 / kShadowMapSize;  // ~ a 6-texel wide penumbra
+            lights.shadowRadius = 1.0 / kShadowMapSize;  // 4 taps at +-1 texel: ~4-texel penumbra
             lights.normalOffset = 1.5 * texelWorld;
 
             glBindFramebuffer(GL_FRAMEBUFFER, shadowFbo);
@@ -525,9 +659,27 @@ struct Renderer::Impl {
             glPolygonOffset(2.0f, 4.0f);
             glUseProgram(shadowProgram.id());
             setMat4(shadowProgram, "uLightClipFromWorld", lightClipFromWorld);
-            drawMeshes(scene);
+            // Closed meshes put only their back faces (seen from the light) in the map: half
+            // the triangles to set up, and lit surfaces never compare against themselves.
+            for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+                if (meshes[i].indexCount == 0) continue;
+                if (meshes[i].closed) glEnable(GL_CULL_FACE);
+                else glDisable(GL_CULL_FACE);
+                glCullFace(meshes[i].inverted ? GL_BACK : GL_FRONT);
+                glBindVertexArray(meshes[i].vao);
+                glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+            }
+            glBindVertexArray(0);
+            glDisable(GL_CULL_FACE);
+            glCullFace(GL_BACK);
             glDisable(GL_POLYGON_OFFSET_FILL);
         }
+
+        if (settings.profilePasses) {
+            glFinish();
+            timings.shadowMs = msSince(t0);
+        }
+        const auto tScene = std::chrono::steady_clock::now();
 
         // 2. The scene at n x n resolution: premultiplied linear colour, alpha = coverage.
         glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
@@ -540,6 +692,33 @@ struct Renderer::Impl {
         glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
         glActiveTexture(GL_TEXTURE0);
         glBindTexture(GL_TEXTURE_2D, shadowDepth);
+
+        // Meshes first, so that early depth testing rejects the ground behind them. Closed,
+        // consistently oriented meshes cull their back faces (never visible; half the
+        // fragments); open ones are two-sided.
+        glUseProgram(meshProgram.id());
+        setMat4(meshProgram, "uClipFromWorld", clipFromWorld);
+        setLighting(meshProgram, lights);
+        setVec3(meshProgram, "uEye", camera.eye);
+        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+            if (meshes[i].indexCount == 0) continue;
+            const DrawMesh& m = scene.meshes[i];
+            setVec3(meshProgram, "uAlbedo", m.colour.cwiseMax(0.0).cwiseMin(1.0));
+            setVec3(meshProgram, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
+            setVec3(meshProgram, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));
+            setFloat(meshProgram, "uRampMin", m.ramp.min);
+            const Real span = m.ramp.max - m.ramp.min;
+            setFloat(meshProgram, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
+            setInt(meshProgram, "uHasScalar", m.scalar.empty() ? 0 : 1);
+            if (meshes[i].closed) glEnable(GL_CULL_FACE);
+            else glDisable(GL_CULL_FACE);
+            glCullFace(meshes[i].inverted ? GL_FRONT : GL_BACK);
+            glBindVertexArray(meshes[i].vao);
+            glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+        }
+        glBindVertexArray(0);
+        glDisable(GL_CULL_FACE);
+        glCullFace(GL_BACK);
 
         if (drawGround) {
             // Where shadows can fall: the bounding sphere projected along the key light onto
@@ -586,18 +765,11 @@ struct Renderer::Impl {
             glBindVertexArray(0);
         }
 
-        glUseProgram(meshProgram.id());
-        setMat4(meshProgram, "uClipFromWorld", clipFromWorld);
-        setLighting(meshProgram, lights);
-        setVec3(meshProgram, "uEye", camera.eye);
-        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
-            if (meshes[i].indexCount == 0) continue;
-            const Vec3 albedo = scene.meshes[i].colour.cwiseMax(0.0).cwiseMin(1.0);
-            setVec3(meshProgram, "uAlbedo", albedo);
-            glBindVertexArray(meshes[i].vao);
-            glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+        if (settings.profilePasses) {
+            glFinish();
+            timings.sceneMs = msSince(tScene);
         }
-        glBindVertexArray(0);
+        const auto tResolve = std::chrono::steady_clock::now();
 
         // 3. Box downsample, composite or un-premultiply, sRGB encode -> RGBA16.
         glBindFramebuffer(GL_FRAMEBUFFER, outFbo);
@@ -606,7 +778,6 @@ struct Renderer::Impl {
         glUseProgram(resolveProgram.id());
         glBindTexture(GL_TEXTURE_2D, sceneColour);
         setInt(resolveProgram, "uColour", 0);
-        setInt(resolveProgram, "uFactor", factor);
         setInt(resolveProgram, "uTransparent", settings.transparentBackground ? 1 : 0);
         setVec3(resolveProgram, "uBackground", settings.background);
         // The background encoded exactly on the CPU, as a value that converts back to the same
@@ -621,6 +792,7 @@ struct Renderer::Impl {
         glBindVertexArray(0);
 
         glFinish();
+        if (settings.profilePasses) timings.resolveMs = msSince(tResolve);
         timings.drawMs = msSince(t0);
         t0 = std::chrono::steady_clock::now();
 
@@ -658,6 +830,8 @@ Renderer::~Renderer() = default;
 Image Renderer::render(const FrameScene& scene, const Camera& camera) { return mImpl->render(scene, camera); }
 
 std::string Renderer::glRenderer() const { return mImpl->context.description(); }
+
+GlBackend Renderer::backend() const { return mImpl->context.backend(); }
 
 Renderer::Timings Renderer::lastTimings() const { return mImpl->timings; }
 

@@ -1,7 +1,8 @@
 #pragma once
 /// @file renderer.hpp
-/// @brief Offscreen rendering of a frame to an Image (OSMesa core profile on llvmpipe; GL stays
-/// inside render/*.cpp). Shading in linear light, sRGB at output, 2x2 supersampling by default.
+/// @brief Offscreen rendering of a frame to an Image (OSMesa or EGL core profile on llvmpipe;
+/// GL stays inside render/*.cpp). Shading in linear light, sRGB at output, 2x2 supersampling
+/// by default.
 
 #include "base/image.hpp"
 #include "base/types.hpp"
@@ -14,17 +15,40 @@
 
 namespace dgv {
 
-/// One surface to draw, in world space. Normals are recomputed from the positions every frame.
+/// A colour ramp for a per-vertex scalar (e.g. the contact set R: penetration depth, or
+/// frames since contact). Where the interpolated scalar s > 0 the albedo becomes
+/// mix(low, high, clamp((s - min) / (max - min), 0, 1)); where s <= 0 it stays the mesh colour,
+/// so 0 means "not highlighted".
+struct ScalarRamp {
+    Vec3 low = Vec3(1.0, 0.85, 0.1);   ///< linear RGB at s = min
+    Vec3 high = Vec3(0.9, 0.05, 0.02); ///< linear RGB at s >= max
+    Real min = 0, max = 1;
+};
+
+/// One surface to draw, in world space. Normals are recomputed from the positions every frame
+/// (area-weighted, split along creases: RenderSettings::creaseDegrees).
 struct DrawMesh {
     std::vector<Vec3> positions;
     std::vector<std::array<int, 3>> triangles;  ///< CCW from outside
     Vec3 colour = Vec3(0.8, 0.8, 0.8);          ///< linear RGB albedo in [0,1]
+    std::vector<Real> scalar;                   ///< per vertex (same size as positions) or empty
+    ScalarRamp ramp;                            ///< how `scalar` colours the surface
 };
 
 struct FrameScene {
     std::vector<DrawMesh> meshes;
     bool groundPlane = true;  ///< a ground under the lowest point, with a soft contact shadow
 };
+
+/// Where the OpenGL context comes from (both give llvmpipe and bit-identical images on Mesa 22).
+enum class GlBackend {
+    Auto,    ///< OSMesa, else EGL
+    Egl,     ///< EGL: Mesa's software device, else the surfaceless platform
+    OsMesa,  ///< OSMesa (removed from Mesa 25.1)
+};
+
+/// "auto", "egl", "osmesa".
+std::string glBackendName(GlBackend backend);
 
 struct RenderSettings {
     int width = 640;
@@ -33,6 +57,14 @@ struct RenderSettings {
     Vec3 background = Vec3(0.18, 0.19, 0.21);  ///< linear RGB
     bool transparentBackground = false;   ///< alpha 0 where nothing is drawn
     std::string shaderDir;                ///< empty: found automatically (see findShaderDir)
+    GlBackend backend = GlBackend::Auto;  ///< the OpenGL context's source
+    /// Normals are smoothed across an edge only when its two faces' normals differ by at most
+    /// this angle; sharper edges split the vertices (a crisp box). 180: smooth everywhere.
+    /// The split is decided when a mesh's triangle list is first seen (0..180 degrees).
+    double creaseDegrees = 40;
+    /// Finish the GL work after each pass to time it (Timings::shadowMs...). Off in production
+    /// renders: the waits stop llvmpipe overlapping passes.
+    bool profilePasses = false;
 
     std::vector<std::string> validate() const;  ///< problems by field name; empty when valid
 };
@@ -55,12 +87,18 @@ public:
 
     /// GL_RENDERER and GL_VERSION, for logs and PNG provenance.
     std::string glRenderer() const;
+    /// The context backend in use (OsMesa or Egl, never Auto). Use one backend per process:
+    /// OSMesa and EGL contexts share Mesa's dispatch, so do not interleave their renders.
+    GlBackend backend() const;
 
     /// Wall-clock split of the last render() call, in milliseconds (for benchmarks and logs):
     /// prepare = normals and uploads on the CPU, draw = GL passes until glFinish, readback =
     /// glReadPixels and the row flip.
+    /// With RenderSettings::profilePasses, draw is split into shadow (depth from the key
+    /// light), scene (meshes and ground at n x n) and resolve (downsample, sRGB encode).
     struct Timings {
         double prepareMs = 0, drawMs = 0, readbackMs = 0;
+        double shadowMs = 0, sceneMs = 0, resolveMs = 0;
     };
     Timings lastTimings() const;
 

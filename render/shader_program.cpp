@@ -32,7 +32,13 @@ std::string programLog(GLuint program) {
 GLuint compile(GLenum type, const std::string& path, const std::string& preludePath = "",
                const std::string& defines = "") {
     std::string source = readShaderFile(path);
-    if (!preludePath.empty()) {
+    if (preludePath.empty() && !defines.empty()) {
+        const std::size_t eol = source.find('\n');
+        if (source.compare(0, 8, "#version") != 0 || eol == std::string::npos) {
+            throw RuntimeError("shader " + path + ": the first line must be the #version line");
+        }
+        source = source.substr(0, eol + 1) + defines + "#line 2 0\n" + source.substr(eol + 1);
+    } else if (!preludePath.empty()) {
         const std::size_t eol = source.find('\n');
         if (source.compare(0, 8, "#version") != 0 || eol == std::string::npos) {
             throw RuntimeError("shader " + path + ": the first line must be the #version line");

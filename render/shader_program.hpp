@@ -13,7 +13,8 @@ public:
     /// Reads `dir`/`vertexFile` and `dir`/`fragmentFile`, compiles and links them. When
     /// `fragmentPrelude` is given, that file's text is inserted after the fragment shader's
     /// #version line (GLSL has no #include); a #line directive keeps the log's line numbers.
-    /// `defines` (e.g. "#define DGV_SHADOWS 0\n") goes before the prelude, for variants.
+    /// `defines` (e.g. "#define DGV_SHADOWS 0\n") goes after the #version line (before the
+    /// prelude, if any), for variants.
     /// RuntimeError naming the file and quoting the compiler or linker log on failure.
     ShaderProgram(const std::string& dir, const std::string& vertexFile, const std::string& fragmentFile,
                   const std::string& fragmentPrelude = "", const std::string& defines = "");

@@ -2,9 +2,17 @@
 // (lighting.glsl is inserted here)
 in vec3 vPosition;
 in vec3 vNormal;
+in float vScalar;
 
 uniform vec3 uEye;
 uniform vec3 uAlbedo;
+// Highlight ramp (render/renderer.hpp, ScalarRamp): where the scalar is > 0 the albedo is
+// mix(uRampLow, uRampHigh, clamp((s - uRampMin) * uRampInvSpan, 0, 1)).
+uniform int uHasScalar;
+uniform vec3 uRampLow;
+uniform vec3 uRampHigh;
+uniform float uRampMin;
+uniform float uRampInvSpan;
 
 out vec4 fragColour;
 
@@ -14,12 +22,16 @@ void main() {
     if (!gl_FrontFacing) n = -n;  // two-sided: open meshes show their inside lit too
     vec3 v = normalize(uEye - vPosition);
 
+    vec3 albedo = uAlbedo;
+    if (uHasScalar != 0 && vScalar > 0.0)
+        albedo = mix(uRampLow, uRampHigh, clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0));
+
     float key = keyVisibility(vPosition, n);
     vec3 irradiance = uKeyColour * (max(dot(n, uKeyDir), 0.0) * key)
                     + uFillColour * max(dot(n, uFillDir), 0.0)
                     + uRimColour * max(dot(n, uRimDir), 0.0)
                     + hemisphere(n);
-    vec3 colour = uAlbedo * irradiance
+    vec3 colour = albedo * irradiance
                 + specular(n, v, uKeyDir, uKeyColour, 48.0) * key
                 + specular(n, v, uRimDir, uRimColour, 24.0);
     fragColour = vec4(colour, 1.0);  // premultiplied, opaque

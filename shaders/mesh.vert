@@ -1,15 +1,19 @@
 #version 330 core
-// Surfaces in world space; normals come per vertex from the CPU (area-weighted).
+// Surfaces in world space; normals come per vertex from the CPU (area-weighted, split at
+// creases). aScalar is the optional per-vertex highlight value (contact ramp), 0 when unused.
 layout(location = 0) in vec3 aPosition;
 layout(location = 1) in vec3 aNormal;
+layout(location = 2) in float aScalar;
 
 uniform mat4 uClipFromWorld;
 
 out vec3 vPosition;
 out vec3 vNormal;
+out float vScalar;
 
 void main() {
     vPosition = aPosition;
     vNormal = aNormal;
+    vScalar = aScalar;
     gl_Position = uClipFromWorld * vec4(aPosition, 1.0);
 }

@@ -1,15 +1,20 @@
 // `dgv bench render`: one turntable frame of a displaced sphere (~200k triangles) at 1920x1080
 // with 2x2 supersampling, key-light shadows and the ground, PNG-encoded to memory (8-bit).
-// Quick: 320x180 and ~20k triangles. Prints min and median over the repeats (llvmpipe timings
-// vary with machine load; see docs/rendering.md).
+// Quick: 320x180 and ~20k triangles. Prints the per-pass split (min and median over the repeats,
+// each pass finished before the next) and the end-to-end rate of a sequence, PNG encoding
+// overlapped with the next draw as in `dgv render` (llvmpipe timings vary with machine load; see
+// docs/rendering.md).
 #include "app/bench.hpp"
 
 #include "io/png.hpp"
 #include "render/renderer.hpp"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <thread>
 #include <vector>
 
 namespace dgv::bench {
@@ -42,6 +47,13 @@ DrawMesh bumpySphere(int rings, int segments) {
     return m;
 }
 
+/// User + system CPU time of the whole process (all threads), in milliseconds.
+double processCpuMs() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return (u.ru_utime.tv_sec + u.ru_stime.tv_sec) * 1e3 + (u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-3;
+}
+
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     const std::size_t n = v.size();
@@ -60,35 +72,81 @@ void render(std::ostream& out, const BenchOptions& options) {
     scene.groundPlane = true;
     Box3 bounds;
     for (const Vec3& p : scene.meshes[0].positions) bounds.extend(p);
+    PngWriteOptions png;  // the defaults dgv render uses for 8-bit frames
+    const int repeats = std::max(options.repeats, 1);
+    auto camera = [&](int f) {
+        return turntableCamera(bounds, 15.0 * f, 20, 35, Real(settings.width) / settings.height);
+    };
+    using Clock = std::chrono::steady_clock;
+    auto msSince = [](Clock::time_point t0) {
+        return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    };
 
-    Renderer renderer(settings);
-    const int frames = std::max(options.repeats, 1) + 1;  // the first frame (uploads, JIT) is not timed
-    std::vector<double> prepare, draw, readback, encode, total;
+    // 1. Stage by stage, each pass finished before the next (RenderSettings::profilePasses).
+    std::vector<double> prepare, draw, shadow, scenePass, resolve, readback, encode, total;
     std::size_t pngBytes = 0;
-    for (int f = 0; f < frames; ++f) {
-        const Camera cam = turntableCamera(bounds, 15.0 * f, 20, 35, Real(settings.width) / settings.height);
-        const Image img = renderer.render(scene, cam);
-        const auto t0 = std::chrono::steady_clock::now();
-        pngBytes = encodePng(img).size();
-        const double encodeMs =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        if (f == 0) continue;
-        const Renderer::Timings t = renderer.lastTimings();
-        prepare.push_back(t.prepareMs);
-        draw.push_back(t.drawMs);
-        readback.push_back(t.readbackMs);
-        encode.push_back(encodeMs);
-        total.push_back(t.prepareMs + t.drawMs + t.readbackMs + encodeMs);
+    std::string glName;
+    {
+        RenderSettings profiled = settings;
+        profiled.profilePasses = true;
+        Renderer renderer(profiled);
+        glName = renderer.glRenderer();
+        for (int f = 0; f <= repeats; ++f) {  // frame 0 (uploads, shader JIT) is not timed
+            const Image img = renderer.render(scene, camera(f));
+            const auto t0 = Clock::now();
+            pngBytes = encodePng(img, png).size();
+            const double encodeMs = msSince(t0);
+            if (f == 0) continue;
+            const Renderer::Timings t = renderer.lastTimings();
+            prepare.push_back(t.prepareMs);
+            draw.push_back(t.drawMs);
+            shadow.push_back(t.shadowMs);
+            scenePass.push_back(t.sceneMs);
+            resolve.push_back(t.resolveMs);
+            readback.push_back(t.readbackMs);
+            encode.push_back(encodeMs);
+            total.push_back(t.prepareMs + t.drawMs + t.readbackMs + encodeMs);
+        }
     }
-    out << "render.gl_renderer: " << renderer.glRenderer() << "\n";
+
+    // 2. End to end as `dgv render` runs a sequence: no pass waits, the PNG of frame n encoded
+    // on a worker thread while frame n+1 draws (PngWriteQueue's pattern, to memory).
+    double sequenceMs = 0, sequenceCpuMs = 0;
+    {
+        Renderer renderer(settings);
+        renderer.render(scene, camera(0));  // warm-up, not timed
+        std::vector<unsigned char> bytes;
+        std::thread worker;
+        const double cpu0 = processCpuMs();
+        const auto t0 = Clock::now();
+        for (int f = 1; f <= repeats; ++f) {
+            Image img = renderer.render(scene, camera(f));
+            if (worker.joinable()) worker.join();
+            worker = std::thread([&bytes, &png, frame = std::move(img)] { bytes = encodePng(frame, png); });
+        }
+        if (worker.joinable()) worker.join();
+        sequenceMs = msSince(t0) / repeats;
+        sequenceCpuMs = (processCpuMs() - cpu0) / repeats;
+    }
+
+    out << "render.gl_renderer: " << glName << "\n";
     out << "render.size: " << settings.width << "x" << settings.height << " x" << settings.supersample
         << "x" << settings.supersample << " supersampled, " << scene.meshes[0].triangles.size() << " triangles\n";
     out << "render.prepare_ms_median: " << median(prepare) << " ms\n";
+    out << "render.shadow_pass_ms_median: " << median(shadow) << " ms\n";
+    out << "render.scene_pass_ms_median: " << median(scenePass) << " ms\n";
+    out << "render.resolve_pass_ms_median: " << median(resolve) << " ms\n";
     out << "render.draw_ms_min: " << *std::min_element(draw.begin(), draw.end()) << " ms\n";
     out << "render.draw_ms_median: " << median(draw) << " ms\n";
     out << "render.readback_ms: " << median(readback) << " ms\n";
-    out << "render.encode_ms: " << median(encode) << " ms (" << pngBytes << " bytes, 8-bit)\n";
-    out << "render.fps: " << 1000.0 / median(total) << " frames/s\n";
+    out << "render.encode_ms: " << median(encode) << " ms (" << pngBytes << " bytes, 8-bit, level "
+        << png.compressionLevel << ")\n";
+    out << "render.serial_fps: " << 1000.0 / median(total) << " frames/s\n";
+    out << "render.sequence_ms_per_frame: " << sequenceMs << " ms\n";
+    // CPU time of all threads per frame: less sensitive to other load than wall time. On an idle
+    // machine with N cores a frame takes at least cpu/N of wall time.
+    out << "render.sequence_cpu_ms_per_frame: " << sequenceCpuMs << " ms\n";
+    out << "render.fps: " << 1000.0 / sequenceMs << " frames/s\n";
     out.flush();
 }
 

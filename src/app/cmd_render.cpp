@@ -1,6 +1,7 @@
 // dgv render: scene -> objects -> per frame: deform the embedded meshes, draw, write PNG.
 
 #include "app/commands.hpp"
+#include "app/curve_scene.hpp"
 #include "app/scene_build.hpp"
 #include "base/errors.hpp"
 #include "base/progress.hpp"
@@ -12,8 +13,11 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 
@@ -47,8 +51,44 @@ void parseFrameRange(const std::string& text, const SceneDesc& scene, int& first
             std::to_string(scene.frameEnd));
 }
 
+/// Parses "WxH" (16..16384 each).
+void parseResolution(const std::string& text, int& width, int& height) {
+    auto bad = [&] { throw InputError("--resolution", "", "expected WxH with W and H in 16..16384, got \"" + text + "\""); };
+    const std::size_t x = text.find_first_of("xX");
+    if (x == std::string::npos || x == 0 || x + 1 >= text.size()) bad();
+    try {
+        std::size_t pos = 0;
+        width = std::stoi(text.substr(0, x), &pos);
+        if (pos != x) bad();
+        const std::string rest = text.substr(x + 1);
+        height = std::stoi(rest, &pos);
+        if (pos != rest.size()) bad();
+    } catch (const std::logic_error&) {
+        bad();
+    }
+    if (width < 16 || width > 16384 || height < 16 || height > 16384) bad();
+}
+
+/// The keyframed camera at `frame`: eye, target and fov interpolated linearly between the keys
+/// around it, held before the first and after the last.
+Camera keyframedCamera(const CameraDesc& c, Real frame) {
+    Camera cam;
+    cam.up = c.up;
+    const std::vector<CameraKey>& k = c.keys;
+    std::size_t i = 0;
+    while (i + 1 < k.size() && k[i + 1].frame <= frame) ++i;
+    const CameraKey& a = k[i];
+    const CameraKey& b = k[std::min(i + 1, k.size() - 1)];
+    const Real t = (b.frame > a.frame) ? std::clamp((frame - a.frame) / (b.frame - a.frame), Real(0), Real(1)) : 0;
+    cam.eye = (1 - t) * a.eye + t * b.eye;
+    cam.target = (1 - t) * a.target + t * b.target;
+    cam.fovYDegrees = (1 - t) * a.fovDegrees + t * b.fovDegrees;
+    return cam;
+}
+
 Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real aspect) {
     const CameraDesc& c = scene.camera;
+    if (c.type == CameraType::Keyframed) return keyframedCamera(c, frame);
     if (c.type == CameraType::LookAt) {
         Camera cam;
         cam.eye = c.eye;
@@ -62,6 +102,68 @@ Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real a
     const Real frames = scene.frameEnd - scene.frameStart + 1;
     const Real angle = c.startDegrees + c.degrees * (frame - scene.frameStart) / frames;
     return turntableCamera(bounds, angle, c.elevationDegrees, c.fovDegrees, aspect, c.margin);
+}
+
+/// The exact sRGB curve, linear [0,1] -> encoded [0,1] (as the renderer's background).
+double linearToSrgb(double x) {
+    x = std::clamp(x, 0.0, 1.0);
+    return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+}
+
+/// Thumbnail of at most `maxWidth` pixels across: a box filter over whole source pixels (on
+/// the sRGB-encoded 16-bit values: a preview, not a resample for compositing).
+Image thumbnail(const Image& src, int maxWidth) {
+    const int step = std::max(1, (src.width + maxWidth - 1) / maxWidth);
+    Image t(std::max(1, src.width / step), std::max(1, src.height / step));
+    for (int y = 0; y < t.height; ++y)
+        for (int x = 0; x < t.width; ++x)
+            for (int c = 0; c < 4; ++c) {
+                std::uint64_t sum = 0;
+                for (int j = 0; j < step; ++j)
+                    for (int i = 0; i < step; ++i) sum += src.pixel(x * step + i, y * step + j)[c];
+                t.pixel(x, y)[c] = static_cast<std::uint16_t>((sum + step * step / 2) / (step * step));
+            }
+    return t;
+}
+
+/// The thumbnails in a grid, row by row in frame order, ceil(sqrt(n)) columns; gaps are the
+/// background (or transparent).
+Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
+    const int n = static_cast<int>(thumbs.size());
+    const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
+    const int rows = (n + cols - 1) / cols;
+    const int tw = thumbs[0].width, th = thumbs[0].height, pad = 4;
+    Image sheet(cols * tw + (cols + 1) * pad, rows * th + (rows + 1) * pad);
+    for (int y = 0; y < sheet.height; ++y)
+        for (int x = 0; x < sheet.width; ++x) std::copy(gap.pixel(0, 0), gap.pixel(0, 0) + 4, sheet.pixel(x, y));
+    for (int k = 0; k < n; ++k) {
+        const int ox = pad + (k % cols) * (tw + pad), oy = pad + (k / cols) * (th + pad);
+        for (int y = 0; y < th; ++y)
+            std::copy(thumbs[static_cast<std::size_t>(k)].pixel(0, y), thumbs[static_cast<std::size_t>(k)].pixel(0, y) + 4 * tw,
+                      sheet.pixel(ox, oy + y));
+    }
+    return sheet;
+}
+
+/// True when `program` is an executable file in a folder of $PATH.
+bool onPath(const std::string& program) {
+    const char* path = std::getenv("PATH");
+    if (!path) return false;
+    std::string all = path;
+    std::size_t start = 0;
+    while (start <= all.size()) {
+        const std::size_t end = std::min(all.find(':', start), all.size());
+        const fs::path candidate = fs::path(all.substr(start, end - start)) / program;
+        if (end > start && access(candidate.c_str(), X_OK) == 0) return true;
+        start = end + 1;
+    }
+    return false;
+}
+
+std::string shellQuote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
 }
 
 std::string framePath(const std::string& dir, const std::string& name, int frame) {
@@ -79,8 +181,21 @@ int runRender(const RenderOptions& options) {
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();
     if (options.width > 0) scene.render.width = options.width;
     if (options.height > 0) scene.render.height = options.height;
+    if (!options.resolution.empty()) parseResolution(options.resolution, scene.render.width, scene.render.height);
+    GlBackend backend = GlBackend::Auto;
+    if (options.glBackend == "egl") backend = GlBackend::Egl;
+    else if (options.glBackend == "osmesa") backend = GlBackend::OsMesa;
+    else if (options.glBackend != "auto")
+        throw InputError("--gl-backend", "", "expected auto, egl or osmesa, got \"" + options.glBackend + "\"");
+    if (static_cast<long long>(scene.render.width) * scene.render.supersample > 16384 ||
+        static_cast<long long>(scene.render.height) * scene.render.supersample > 16384)
+        throw InputError("--resolution", "", "width and height times the scene's supersample (" +
+                                                 std::to_string(scene.render.supersample) + ") must stay within 16384");
+    if (options.movie && !onPath("ffmpeg"))
+        throw InputError("--movie", "", "ffmpeg is not on PATH: install it (Debian: apt-get install ffmpeg) or drop --movie");
     if (scene.output.vdb)
         throw InputError(scene.path, "output.vdb", "VDB caches are not built yet (a coming milestone); set it to false");
+    if (!scene.curves.empty()) return renderCurveScene(scene, first, last);  // the GLN figures
     if (!scene.forces.empty() || !scene.colliders.empty())
         logWarning(scene.path + ": forces and colliders are validated but not simulated yet; objects render at rest");
 
@@ -99,6 +214,8 @@ int runRender(const RenderOptions& options) {
     rs.supersample = scene.render.supersample;
     rs.background = scene.render.background;
     rs.transparentBackground = scene.render.transparent;
+    rs.creaseDegrees = scene.render.creaseDegrees;
+    rs.backend = backend;
     Renderer renderer(rs);
     const std::string glName = renderer.glRenderer();
 
@@ -120,8 +237,15 @@ int runRender(const RenderOptions& options) {
             " (" + glName + ")");
     Progress progress("render", last - first + 1, "frames");
     const Real aspect = Real(rs.width) / Real(rs.height);
+    // Frame n is encoded and written on a worker thread while frame n+1 draws (same bytes,
+    // same atomic writes; one frame in flight). Progress counts frames once they are on disk.
+    PngWriteQueue writer;
+    std::vector<Image> thumbs;
+    std::string inFlight;
     for (int frame = first; frame <= last; ++frame) {
         if (cancelRequested()) {
+            writer.finish();
+            if (!inFlight.empty()) progress.step(inFlight);
             progress.finish();
             std::fprintf(stderr, "dgv: interrupted before frame %d; the frames written are complete\n", frame);
             return kExitInterrupted;
@@ -134,11 +258,49 @@ int runRender(const RenderOptions& options) {
                     {"Source", glName},
                     {"dgv:scene", scene.path},
                     {"dgv:frame", std::to_string(frame)}};
-        writePng(path, image, png);
-        progress.step(path);
+        if (options.contactSheet) thumbs.push_back(thumbnail(image, 320));
+        writer.submit(path, std::move(image), png);  // waits for the previous frame's write
+        if (!inFlight.empty()) progress.step(inFlight);
+        inFlight = path;
     }
+    writer.finish();
+    if (!inFlight.empty()) progress.step(inFlight);
     progress.finish();
     if (cancelRequested()) return kExitInterrupted;
+    if (options.contactSheet) {
+        Image gap(1, 1);
+        for (int c = 0; c < 3; ++c)
+            gap.pixel(0, 0)[c] = static_cast<std::uint16_t>(std::lround(65535 * linearToSrgb(rs.background[c])));
+        gap.pixel(0, 0)[3] = rs.transparentBackground ? 0 : 65535;
+        const fs::path sheetPath = fs::path(scene.output.dir) / (scene.name + ".contact.png");
+        PngWriteOptions sheetPng = png;
+        sheetPng.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
+                         {"dgv:scene", scene.path},
+                         {"dgv:frames", std::to_string(first) + "-" + std::to_string(last)}};
+        writePng(sheetPath, contactSheet(thumbs, gap), sheetPng);
+        logInfo("wrote the contact sheet " + sheetPath.string());
+    }
+    if (options.movie) {
+        // ffmpeg writes a temporary in the output folder, renamed when it succeeds.
+        const fs::path moviePath = fs::path(scene.output.dir) / (scene.name + ".mp4");
+        const fs::path tmp = fs::path(scene.output.dir) / ("." + scene.name + ".mp4.tmp-" + std::to_string(getpid()) + ".mp4");
+        const std::string cmd = "ffmpeg -loglevel error -y -framerate " + std::to_string(scene.fps) + " -start_number " +
+                                std::to_string(first) + " -i " +
+                                shellQuote((fs::path(scene.output.dir) / (scene.name + ".%04d.png")).string()) +
+                                " -frames:v " + std::to_string(last - first + 1) +
+                                " -c:v libx264 -pix_fmt yuv420p -crf 18 -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' " +
+                                shellQuote(tmp.string());
+        const int rc = std::system(cmd.c_str());
+        std::error_code ec;
+        if (rc != 0) {
+            fs::remove(tmp, ec);
+            throw RuntimeError("ffmpeg failed (exit status " + std::to_string(rc) + ") making " + moviePath.string() +
+                               "; the frames are complete");
+        }
+        fs::rename(tmp, moviePath, ec);
+        if (ec) throw RuntimeError(moviePath.string() + ": " + ec.message());
+        logInfo("wrote the preview movie " + moviePath.string());
+    }
     logInfo("wrote " + std::to_string(last - first + 1) + " frames: " + scene.output.dir + "/" + scene.name +
             ".####.png");
     return kExitOk;

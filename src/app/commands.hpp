@@ -13,6 +13,10 @@ struct RenderOptions {
     std::string frames;       ///< "A-B" or "N"; empty: the scene's range
     std::string outDir;       ///< empty: the scene's output.dir
     int width = 0, height = 0;  ///< 0: the scene's
+    std::string resolution;   ///< "WxH" (overrides width/height); empty: the scene's
+    std::string glBackend = "auto";  ///< auto | egl | osmesa
+    bool contactSheet = false;  ///< also <out>/<name>.contact.png: the frames in a grid
+    bool movie = false;         ///< also <out>/<name>.mp4 through ffmpeg (must be on PATH)
 };
 int runRender(const RenderOptions& options);
 

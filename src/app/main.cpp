@@ -48,6 +48,11 @@ int main(int argc, char** argv) {
     cRender->add_option("--out", render.outDir, "Output folder (default: the scene's output.dir)");
     cRender->add_option("--width", render.width, "Image width in pixels")->check(CLI::Range(16, 16384));
     cRender->add_option("--height", render.height, "Image height in pixels")->check(CLI::Range(16, 16384));
+    cRender->add_option("--resolution", render.resolution, "Image size WxH, e.g. 1920x1080 (overrides the scene)");
+    cRender->add_option("--gl-backend", render.glBackend, "OpenGL context: auto (OSMesa, else EGL), egl or osmesa")
+        ->check(CLI::IsMember({"auto", "egl", "osmesa"}));
+    cRender->add_flag("--contact-sheet", render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
+    cRender->add_flag("--movie", render.movie, "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");
     cRender->footer(kExitCodes);
 
     auto* cSim = cli.add_subcommand("simulate", "Simulate a scene and write caches (not built yet)");

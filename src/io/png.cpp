@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <utility>
 
 namespace dgv {
 
@@ -310,6 +311,58 @@ Image readPng(const fs::path& path, std::vector<std::pair<std::string, std::stri
     std::fclose(f);
     if (rc != 0) throw InputError(path.string(), "", std::string("cannot read PNG: ") + err.message);
     return image;
+}
+
+PngWriteQueue::PngWriteQueue() : mThread([this] { run(); }) {}
+
+PngWriteQueue::~PngWriteQueue() {
+    {
+        std::unique_lock<std::mutex> lock(mMutex);
+        mCv.wait(lock, [&] { return !mBusy; });
+        mStop = true;
+    }
+    mCv.notify_all();
+    mThread.join();
+}
+
+void PngWriteQueue::submit(std::filesystem::path path, Image image, PngWriteOptions options,
+                           std::function<void(const std::string&)> done) {
+    std::unique_lock<std::mutex> lock(mMutex);
+    mCv.wait(lock, [&] { return !mBusy; });
+    if (mError) std::rethrow_exception(std::exchange(mError, nullptr));
+    mPath = std::move(path);
+    mImage = std::move(image);
+    mOptions = std::move(options);
+    mDone = std::move(done);
+    mBusy = true;
+    lock.unlock();
+    mCv.notify_all();
+}
+
+void PngWriteQueue::finish() {
+    std::unique_lock<std::mutex> lock(mMutex);
+    mCv.wait(lock, [&] { return !mBusy; });
+    if (mError) std::rethrow_exception(std::exchange(mError, nullptr));
+}
+
+void PngWriteQueue::run() {
+    std::unique_lock<std::mutex> lock(mMutex);
+    for (;;) {
+        mCv.wait(lock, [&] { return mBusy || mStop; });
+        if (!mBusy) return;  // stopping with nothing in flight
+        lock.unlock();
+        std::exception_ptr error;
+        try {
+            writePng(mPath, mImage, mOptions);
+            if (mDone) mDone(mPath.string());
+        } catch (...) {
+            error = std::current_exception();
+        }
+        lock.lock();
+        mError = error;
+        mBusy = false;
+        mCv.notify_all();
+    }
 }
 
 }  // namespace dgv

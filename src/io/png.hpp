@@ -5,8 +5,13 @@
 
 #include "base/image.hpp"
 
+#include <condition_variable>
+#include <exception>
 #include <filesystem>
+#include <functional>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -29,5 +34,36 @@ std::vector<unsigned char> encodePng(const Image& image, const PngWriteOptions& 
 /// the file on failure. `text`, when given, receives the tEXt chunks.
 Image readPng(const std::filesystem::path& path,
               std::vector<std::pair<std::string, std::string>>* text = nullptr);
+
+/// Encodes and writes PNGs on one worker thread while the caller renders the next frame: one
+/// frame in flight, written in submission order, bytes identical to writePng. An error in the
+/// worker is rethrown (as RuntimeError) by the next submit(), wait() or finish().
+class PngWriteQueue {
+public:
+    PngWriteQueue();
+    /// Waits for the frame in flight (an error there is dropped: call finish() to see it).
+    ~PngWriteQueue();
+    PngWriteQueue(const PngWriteQueue&) = delete;
+    PngWriteQueue& operator=(const PngWriteQueue&) = delete;
+
+    /// Waits for the previous frame, then hands `image` to the worker (moved, not copied).
+    /// `done`, when given, runs on the worker after the file is in place (e.g. progress).
+    void submit(std::filesystem::path path, Image image, PngWriteOptions options,
+                std::function<void(const std::string&)> done = {});
+    /// Waits until the frame in flight is written; rethrows its error.
+    void finish();
+
+private:
+    void run();
+    std::mutex mMutex;
+    std::condition_variable mCv;
+    bool mBusy = false, mStop = false;
+    std::filesystem::path mPath;
+    Image mImage;
+    PngWriteOptions mOptions;
+    std::function<void(const std::string&)> mDone;
+    std::exception_ptr mError;
+    std::thread mThread;
+};
 
 }  // namespace dgv
