@@ -1,16 +1,24 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages dgv needs, only those that are missing (a second run does
-# nothing). Usage: scripts/install-deps.sh [--tests]
+# nothing). Usage: scripts/install-deps.sh [--tests] [--fuzz]
 #   --tests  also what the test suite needs (Catch2, assimp's test models, OpenVDB's tools)
+#   --fuzz   also clang and its runtime with libFuzzer (scripts/fuzz.sh)
 set -euo pipefail
 
 build_pkgs=(build-essential cmake ninja-build pkg-config
-  libeigen3-dev libtbb-dev libassimp-dev libosmesa6-dev libpng-dev
+  libeigen3-dev libtbb-dev libassimp-dev libosmesa6-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libpng-dev
   libopenvdb-dev libboost-iostreams-dev nlohmann-json3-dev libcli11-dev catch2)
 test_pkgs=(assimp-testmodels libopenvdb-tools)
+fuzz_pkgs=(clang libclang-rt-14-dev)
 
 pkgs=("${build_pkgs[@]}")
-if [[ "${1:-}" == "--tests" ]]; then pkgs+=("${test_pkgs[@]}"); fi
+for arg in "$@"; do
+  case "$arg" in
+    --tests) pkgs+=("${test_pkgs[@]}") ;;
+    --fuzz) pkgs+=("${fuzz_pkgs[@]}") ;;
+    *) echo "install-deps: unknown option '$arg' (expected --tests or --fuzz)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${pkgs[@]}"; do

@@ -15,7 +15,9 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <set>
@@ -62,33 +64,83 @@ void checkReadable(const fs::path& path) {
 /// Object File Format headers declare their vertex and face counts, and assimp 5.2 reserves
 /// memory for them before reading any: a 300-byte file declaring 10^12 vertices takes tens of
 /// GiB and minutes. Such headers are refused here (each vertex takes at least 6 bytes of text).
-void checkOffHeader(const fs::path& path) {
+/// OFF files are validated in full before assimp sees them: assimp 5.2's OFF reader trusts the
+/// header's counts and each face's vertex count, and reads out of bounds (found by fuzzing:
+/// tests/fuzz) or allocates what the header claims. Checked: the counts fit the file; every
+/// vertex line has at least 3 finite numbers; every face has 1..64 vertices, each index an
+/// integer in [0, vertex count). Comments ('#') and blank lines are skipped as assimp does.
+/// Files that are not OFF (no OFF magic and not a .off extension) are left to assimp.
+void checkOffFile(const fs::path& path) {
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
     std::ifstream in(path, std::ios::binary);
-    std::string head(4096, '\0');
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    head.resize(static_cast<std::size_t>(in.gcount()));
-    std::istringstream text(head);
-    std::vector<std::string> tokens;
-    std::string line;
-    while (tokens.size() < 4 && std::getline(text, line)) {
-        line = line.substr(0, line.find('#'));
-        std::istringstream words(line);
-        std::string w;
-        while (tokens.size() < 4 && words >> w) tokens.push_back(w);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::istringstream text(bytes);
+    const std::string where = path.string();
+    std::size_t lineNo = 0;
+    // The next non-empty, comment-stripped line as words.
+    auto nextLine = [&](std::vector<std::string>& words) {
+        std::string line;
+        while (std::getline(text, line)) {
+            ++lineNo;
+            line = line.substr(0, line.find('#'));
+            std::istringstream ws(line);
+            words.clear();
+            for (std::string w; ws >> w;) words.push_back(w);
+            if (!words.empty()) return true;
+        }
+        return false;
+    };
+    auto fail = [&](const std::string& what) { throw InputError(where, "line " + std::to_string(lineNo), what); };
+    std::vector<std::string> words;
+    if (!nextLine(words)) {
+        if (ext == ".off") throw InputError(where, "", "empty OFF file");
+        return;
     }
-    const bool offMagic = !tokens.empty() && tokens[0].size() >= 3 && tokens[0].size() <= 6 &&
-                          tokens[0].compare(tokens[0].size() - 3, 3, "OFF") == 0;
+    const std::string& magic = words[0];
+    const bool offMagic = magic.size() >= 3 && magic.size() <= 6 && magic.compare(magic.size() - 3, 3, "OFF") == 0;
     if (!offMagic && ext != ".off") return;
-    const std::size_t size = static_cast<std::size_t>(fs::file_size(path));
-    for (std::size_t i = offMagic ? 1 : 0, n = 0; i < tokens.size() && n < 2; ++i, ++n) {
-        const std::string& w = tokens[i];
-        if (w.empty() || w.find_first_not_of("0123456789") != std::string::npos) return;
-        if (w.size() > 15 || std::stoull(w) > size / 6)
-            throw InputError(path.string(), "", "the OFF header declares " + w + (n == 0 ? " vertices" : " faces") +
-                                                    ", more than a " + std::to_string(size) +
-                                                    "-byte file can hold");
+    std::size_t first = 0;  // where the counts start in `words`
+    if (offMagic && words.size() > 1) first = 1;  // "OFF 8 6 12"
+    else if (offMagic && !nextLine(words)) fail("the OFF header has no vertex and face counts");
+    if (words.size() < first + 2) fail("expected the OFF header's vertex and face counts");
+    auto count = [&](const std::string& w, const char* what) {
+        if (w.empty() || w.size() > 15 || w.find_first_not_of("0123456789") != std::string::npos)
+            fail(std::string("expected a ") + what + " count, got '" + w + "'");
+        return static_cast<std::size_t>(std::stoull(w));
+    };
+    const std::size_t nv = count(words[first], "vertex");
+    const std::size_t nf = count(words[first + 1], "face");
+    const std::size_t size = bytes.size();
+    if (nv > size / 6 || nf > size / 6)
+        fail("the OFF header declares " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+             " faces, more than a " + std::to_string(size) + "-byte file can hold");
+    auto number = [&](const std::string& w, double& v) {
+        char* endp = nullptr;
+        v = std::strtod(w.c_str(), &endp);
+        return endp && *endp == '\0' && std::isfinite(v);
+    };
+    for (std::size_t i = 0; i < nv; ++i) {
+        if (!nextLine(words)) fail("the file ends after " + std::to_string(i) + " of " + std::to_string(nv) + " vertices");
+        double v = 0;
+        if (words.size() < 3) fail("a vertex needs 3 coordinates");
+        for (int k = 0; k < 3; ++k)
+            if (!number(words[static_cast<std::size_t>(k)], v)) fail("vertex coordinate '" + words[static_cast<std::size_t>(k)] + "' is not a finite number");
+    }
+    for (std::size_t f = 0; f < nf; ++f) {
+        if (!nextLine(words)) fail("the file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");
+        const std::string& nw = words[0];
+        if (nw.size() > 3 || nw.find_first_not_of("0123456789") != std::string::npos)
+            fail("expected a face's vertex count, got '" + nw + "'");
+        const std::size_t n = static_cast<std::size_t>(std::stoul(nw));
+        if (n < 1 || n > 64) fail("a face with " + nw + " vertices (expected 1 to 64)");
+        if (words.size() < n + 1) fail("the face lists fewer than its " + nw + " vertex indices");
+        for (std::size_t k = 1; k <= n; ++k) {
+            const std::string& w = words[k];
+            if (w.empty() || w.size() > 15 || w.find_first_not_of("0123456789") != std::string::npos ||
+                std::stoull(w) >= nv)
+                fail("face vertex index '" + w + "' is not in [0, " + std::to_string(nv) + ")");
+        }
     }
 }
 
@@ -255,7 +307,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
                         MeshImportReport* report) {
     const std::string p = path.string();
     checkReadable(path);
-    checkOffHeader(path);
+    checkOffFile(path);
 
     Assimp::DefaultLogger::kill();  // the null logger: assimp prints nothing
     Assimp::Importer importer;

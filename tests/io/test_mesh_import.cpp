@@ -207,6 +207,41 @@ TEST_CASE("mesh_import: assimp's broken test models are input errors, never cras
     CHECK(problemOf(kModels / "invalid/OutOfMemory.off").find("OFF header declares") != std::string::npos);
 }
 
+// assimp 5.2's OFF reader trusts the counts it reads; these files crashed it (found by
+// scripts/fuzz.sh). dgv checks OFF files in full first and names the line.
+TEST_CASE("mesh_import: OFF files are checked in full before assimp reads them", "[io]") {
+    test::TempDir dir("mesh-import-off");
+    const std::string verts = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+    const std::string faces = "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    CHECK(import(write(dir.path(), "tet.off", "OFF\n4 4 0\n" + verts + faces)).triangleCount() == 4);
+    CHECK(import(write(dir.path(), "tet1.off", "OFF 4 4 0\n# a comment\n" + verts + faces)).triangleCount() == 4);
+    CHECK(import(kModels / "OFF/Cube.off").triangleCount() == 12);
+
+    auto whereOf = [&](const fs::path& p) {
+        try {
+            import(p);
+        } catch (const InputError& e) {
+            return e.where() + ": " + e.problem();
+        }
+        return std::string("no error");
+    };
+    // The fuzzer's crash: a fourth face with 0 vertices followed by junk.
+    CHECK(whereOf(write(dir.path(), "zero.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n3 0 1 3\n3 0 3 2\n0v 0 0\n")) ==
+          "line 10: expected a face's vertex count, got '0v'");
+    CHECK(whereOf(write(dir.path(), "zero2.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n3 0 1 3\n3 0 3 2\n0\n")) ==
+          "line 10: a face with 0 vertices (expected 1 to 64)");
+    CHECK(whereOf(write(dir.path(), "index.off", "OFF\n4 1 0\n" + verts + "3 0 2 4\n")) ==
+          "line 7: face vertex index '4' is not in [0, 4)");
+    CHECK(whereOf(write(dir.path(), "short.off", "OFF\n4 1 0\n" + verts + "4 0 2 1\n")) ==
+          "line 7: the face lists fewer than its 4 vertex indices");
+    CHECK(whereOf(write(dir.path(), "trunc.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n")) ==
+          "line 7: the file ends after 1 of 4 faces");
+    CHECK(whereOf(write(dir.path(), "vnan.off", "OFF\n4 1 0\n0 0 0\n1 nan 0\n0 1 0\n0 0 1\n3 0 1 2\n")) ==
+          "line 4: vertex coordinate 'nan' is not a finite number");
+    CHECK(whereOf(write(dir.path(), "counts.off", "OFF\nfour 4 0\n" + verts + faces)) ==
+          "line 2: expected a vertex count, got 'four'");
+}
+
 TEST_CASE("mesh_import: real models from assimp's test set", "[io]") {
     MeshImportReport report;
     const TriangleMesh duck = import(kModels / "Collada/duck.dae", "", &report);
