@@ -16,9 +16,10 @@ namespace dgv::app {
 int runBench(const BenchCommandOptions& options) {
     using Fn = std::function<void(std::ostream&, const bench::BenchOptions&)>;
     const std::map<std::string, Fn> built = {
-        {"geometry", bench::geometry}, {"voxelise", bench::voxelise}, {"render", bench::render}};
+        {"geometry", bench::geometry}, {"voxelise", bench::voxelise}, {"render", bench::render},
+        {"gln", bench::gln}, {"reconstruct", bench::reconstruct}};
     const std::map<std::string, std::string> coming = {
-        {"reconstruct", "the solvers"}, {"gln", "the linking numbers"}, {"step", "the dynamics"},
+        {"step", "the dynamics"},
         {"vdb", "the VDB caches"}};
     std::vector<std::string> names = options.names;
     if (names.empty())
@@ -26,7 +27,7 @@ int runBench(const BenchCommandOptions& options) {
     for (const std::string& n : names) {
         if (built.count(n)) continue;
         if (coming.count(n)) throw InputError("bench", n, "not built yet (comes with " + coming.at(n) + ")");
-        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render");
+        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render, gln, reconstruct");
     }
     bench::BenchOptions bo;
     bo.repeats = options.repeats;

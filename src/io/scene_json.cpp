@@ -344,7 +344,54 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.deformable = o.boolean("deformable", true);
         s.objects.push_back(std::move(d));
     });
-    if (s.objects.empty()) r.fail("objects", "a scene needs at least one object");
+    r.array("curves", [&](ObjectReader& c, int i) {
+        CurveDesc d;
+        d.name = c.string("name", "curve" + std::to_string(i));
+        const bool hasFile = c.has("file"), hasRing = c.has("ring");
+        if (hasFile == hasRing) c.fail("", "give exactly one of 'file' (a curve file) or 'ring'");
+        if (hasFile) d.curvePath = resolveInput(sceneDir, c.string("file", "")).string();
+        c.object("ring", [&](ObjectReader& g) {
+            d.centre = g.vec3("centre", d.centre);
+            d.normal = g.direction("normal", d.normal);
+            d.radius = g.number("radius", d.radius, 0, HUGE_VAL, true);
+            d.segments = g.integer("segments", d.segments, 3, 10000000);
+        });
+        if (const Json* m = c.get("motion")) {
+            if (!m->is_array() || m->empty()) c.fail("motion", "expected an array of [frame, [x, y, z]] keys, got " + describe(*m));
+            for (std::size_t k = 0; k < m->size(); ++k) {
+                const Json& e = (*m)[k];
+                const std::string key = "motion[" + std::to_string(k) + "]";
+                if (!e.is_array() || e.size() != 2 || !e[1].is_array() || e[1].size() != 3)
+                    c.fail(key, "expected a [frame, [x, y, z]] key, got " + describe(e));
+                const Real f = c.checkNumber(key + "[0]", e[0], -HUGE_VAL, HUGE_VAL, false);
+                Vec3 v;
+                for (int a = 0; a < 3; ++a)
+                    v[a] = c.checkNumber(key + "[1][" + std::to_string(a) + "]", e[1][static_cast<std::size_t>(a)], -HUGE_VAL, HUGE_VAL, false);
+                if (!d.motion.empty() && f <= d.motion.back().first) c.fail(key, "key frames must increase");
+                d.motion.push_back({f, v});
+            }
+        }
+        d.color = c.color("color", d.color);
+        d.tubeRadius = c.number("tube_radius", d.tubeRadius, 0, HUGE_VAL, true);
+        s.curves.push_back(std::move(d));
+    });
+    for (std::size_t i = 0; i < s.curves.size(); ++i)
+        for (std::size_t j = 0; j < i; ++j)
+            if (s.curves[i].name == s.curves[j].name)
+                throw InputError(file, "curves[" + std::to_string(i) + "].name", "duplicate curve name \"" + s.curves[i].name + "\"");
+    if (!s.curves.empty() && s.curves.size() != 2)
+        r.fail("curves", "expected exactly 2 curves (their linking number is measured), got " + std::to_string(s.curves.size()));
+    if (!s.curves.empty() && !s.objects.empty())
+        r.fail("curves", "a scene has either objects or curves, not both (not supported yet)");
+    r.object("gln", [&](ObjectReader& g) {
+        if (const Json* t = g.get("seed_tolerances")) {
+            if (!t->is_array()) g.fail("seed_tolerances", "expected an array of positive numbers, got " + describe(*t));
+            s.gln.seedTolerances.clear();
+            for (std::size_t k = 0; k < t->size(); ++k)
+                s.gln.seedTolerances.push_back(g.checkNumber("seed_tolerances[" + std::to_string(k) + "]", (*t)[k], 0, 50.0 / 3, true));
+        }
+    });
+    if (s.objects.empty() && s.curves.empty()) r.fail("objects", "a scene needs at least one object");
     for (std::size_t i = 0; i < s.objects.size(); ++i)
         for (std::size_t j = 0; j < i; ++j)
             if (s.objects[i].name == s.objects[j].name)
@@ -362,12 +409,15 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.type = ForceType::Attractor;
             d.position = f.vec3("position", d.position);
             d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+            d.softening = f.number("softening", 0.25 * d.radius, 0, HUGE_VAL, true);
+            d.falloff = f.number("falloff", 2, 0, 4);
             d.strength = readKeyframed(f, "strength", 1);
         } else if (type == "vortex") {
             d.type = ForceType::Vortex;
             d.position = f.vec3("position", d.position);
             d.axis = f.direction("axis", d.axis);
             d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+            d.falloff = f.number("falloff", 1, 0, 4);
             d.strength = readKeyframed(f, "strength", 1);
         } else if (type == "burst") {
             d.type = ForceType::Burst;
@@ -381,6 +431,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.turbulence = f.number("turbulence", 0, 0, HUGE_VAL);
             d.scale = f.number("scale", 1, 0, HUGE_VAL, true);
             d.seed = static_cast<unsigned>(f.integer("seed", 1, 0, 1 << 30));
+            d.modes = f.integer("modes", 32, 1, 4096);
         }
         s.forces.push_back(d);
     });
@@ -408,7 +459,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
 
     r.object("camera", [&](ObjectReader& c) {
         CameraDesc& d = s.camera;
-        std::string type = c.choice("type", "turntable", {"turntable", "look_at"});
+        std::string type = c.choice("type", "turntable", {"turntable", "look_at", "keyframed"});
         d.fovDegrees = c.number("fov", d.fovDegrees, 1, 170);
         if (type == "turntable") {
             d.type = CameraType::Turntable;
@@ -416,6 +467,24 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.startDegrees = c.number("start", d.startDegrees, -36000, 36000);
             d.elevationDegrees = c.number("elevation", d.elevationDegrees, -89, 89);
             d.margin = c.number("margin", d.margin, 0.1, 100);
+        } else if (type == "keyframed") {
+            d.type = CameraType::Keyframed;
+            d.up = c.direction("up", d.up);
+            if (!c.has("keys")) c.fail("keys", "missing; a keyframed camera needs at least one key");
+            c.array("keys", [&](ObjectReader& k, int i) {
+                CameraKey key;
+                key.frame = k.number("frame", 0, -HUGE_VAL, HUGE_VAL);
+                if (!k.has("frame")) k.fail("frame", "missing");
+                key.eye = k.vec3("eye", key.eye);
+                key.target = k.vec3("target", key.target);
+                key.fovDegrees = k.number("fov", d.fovDegrees, 1, 170);
+                if (i > 0 && key.frame <= d.keys.back().frame) k.fail("frame", "key frames must increase");
+                if ((key.eye - key.target).norm() < 1e-9) k.fail("target", "must differ from eye");
+                if ((key.eye - key.target).normalized().cross(d.up).norm() < 1e-6)
+                    k.fail("eye", "the view direction must not be parallel to up");
+                d.keys.push_back(key);
+            });
+            if (d.keys.empty()) c.fail("keys", "needs at least one key");
         } else {
             d.type = CameraType::LookAt;
             d.eye = c.vec3("eye", d.eye);
@@ -436,6 +505,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.transparent = g.boolean("transparent", d.transparent);
         d.ground = g.boolean("ground", d.ground);
         d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
+        d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
         if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
         if (static_cast<long long>(d.width) * d.supersample > 16384 || static_cast<long long>(d.height) * d.supersample > 16384)
             g.fail("supersample", "width and height times supersample must stay within 16384 (the GL limit)");

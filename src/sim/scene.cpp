@@ -30,6 +30,19 @@ Real Keyframed::at(Real frame) const {
     return keys.back().second;
 }
 
+Vec3 CurveDesc::offsetAt(Real frame) const {
+    if (motion.empty()) return Vec3::Zero();
+    if (frame <= motion.front().first) return motion.front().second;
+    for (std::size_t i = 1; i < motion.size(); ++i) {
+        if (frame <= motion[i].first) {
+            const auto& [f0, v0] = motion[i - 1];
+            const auto& [f1, v1] = motion[i];
+            return v0 + (frame - f0) / (f1 - f0) * (v1 - v0);
+        }
+    }
+    return motion.back().second;
+}
+
 Real srgbToLinear(Real c) {
     return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
 }

@@ -60,9 +60,12 @@ struct ForceDesc {
     Vec3 position = Vec3::Zero();           ///< attractor, burst centre; vortex axis point
     Vec3 axis = Vec3::UnitY();              ///< vortex (unit)
     Real radius = 1.0;                      ///< falloff radius (attractor, vortex, burst)
+    Real softening = 0.25;                  ///< attractor: softening radius, > 0 (default radius/4)
+    Real falloff = 2;                       ///< attractor: 1/r^falloff (2); vortex: (1); in [0, 4]
     Real turbulence = 0.0;                  ///< wind: curl-noise amplitude relative to strength
     Real scale = 1.0;                       ///< wind: noise feature size
     unsigned seed = 1;                      ///< wind: noise seed
+    int modes = 32;                         ///< wind: Fourier modes of the noise (cost ∝ modes)
 };
 
 enum class ColliderType { Ground, Sphere, Mesh };
@@ -78,7 +81,38 @@ struct ColliderDesc {
     Real restitution = 0.0;                 ///< elastic bounce, 0..1
 };
 
-enum class CameraType { Turntable, LookAt };
+/// A closed curve drawn as a tube, for the Gauss-linking-number figures (seed section 5, figures
+/// 1-4; app/curve_scene.cpp, docs/gln.md). A ring or a curve file, moved rigidly (no rotation).
+struct CurveDesc {
+    std::string name;
+    std::string curvePath;           ///< a curve file (absolute, io/curve_file.hpp); empty: a ring
+    Vec3 centre = Vec3::Zero();      ///< ring: centre
+    Vec3 normal = Vec3::UnitY();     ///< ring: unit normal of its plane (vertices CCW about it)
+    Real radius = 1;                 ///< ring: radius
+    int segments = 256;              ///< ring: vertices (vertex 0 at centre + radius·u, u the
+                                     ///< coordinate axis least aligned with normal, projected)
+    std::vector<std::pair<Real, Vec3>> motion;  ///< (frame, offset) keys, linear, held outside
+    Vec3 color = Vec3(0.8, 0.8, 0.8);  ///< linear RGB (the file gives sRGB)
+    Real tubeRadius = 0.02;          ///< drawn tube radius (world units)
+
+    Vec3 offsetAt(Real frame) const;  ///< the motion's offset at `frame` (zero without keys)
+};
+
+/// What a scene with curves measures per frame (out/<scene>/gln.csv and the plots).
+struct GlnFigureDesc {
+    std::vector<Real> seedTolerances = {10, 1};  ///< one gln_seed_tol<T> column each
+};
+
+enum class CameraType { Turntable, LookAt, Keyframed };
+
+/// One key of a keyframed camera: at `frame` the camera is at `eye`, looks at `target`, with
+/// vertical field of view `fovDegrees`. Between keys each is interpolated linearly.
+struct CameraKey {
+    Real frame = 1;
+    Vec3 eye = Vec3(0, 1, 5);
+    Vec3 target = Vec3::Zero();
+    Real fovDegrees = 35;
+};
 
 struct CameraDesc {
     CameraType type = CameraType::Turntable;
@@ -93,6 +127,8 @@ struct CameraDesc {
     Vec3 eye = Vec3(0, 1, 5);
     Vec3 target = Vec3::Zero();
     Vec3 up = Vec3::UnitY();
+    // keyframed: frames increasing; held before the first and after the last key (up as above)
+    std::vector<CameraKey> keys;
 };
 
 struct RenderDesc {
@@ -103,6 +139,7 @@ struct RenderDesc {
     bool transparent = false;
     bool ground = true;
     int bitDepth = 8;
+    Real creaseDegrees = 40;   ///< normals split along edges sharper than this (180: smooth)
 };
 
 struct OutputDesc {
@@ -120,6 +157,8 @@ struct SceneDesc {
     std::vector<ObjectDesc> objects;
     std::vector<ForceDesc> forces;
     std::vector<ColliderDesc> colliders;
+    std::vector<CurveDesc> curves;   ///< closed curves (GLN figures); a scene has objects or curves
+    GlnFigureDesc gln;
     CameraDesc camera;
     RenderDesc render;
     OutputDesc output;

@@ -5,6 +5,8 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -69,9 +71,59 @@ TEST_CASE("cli: commands not built yet say so and exit non-zero", "[app][cli]") 
     auto r = test::runDgv("simulate scenes/default.json");
     CHECK(r.exitCode == 1);
     CHECK_THAT(r.output, Catch::Contains("not built yet"));
-    r = test::runDgv("gln a.txt b.txt");
+}
+
+TEST_CASE("cli: gln prints the certified linking number, or why not", "[app][cli][gln]") {
+    test::TempDir dir("cli_gln");
+    // Ring A: radius 1 in the xy-plane; rings B: radius 1 in the xz-plane, centred at (c, 0, 0):
+    // linked (Hopf) for 0 < c < 2, unlinked for c > 2, touching A at (1, 0, 0) for c = 2.
+    auto ring = [&](const std::string& name, double c, bool xz) {
+        std::ofstream f(dir.path() / name);
+        f << "# ring\n";
+        for (int k = 0; k < 64; ++k) {
+            const double phi = 2 * M_PI * k / 64;
+            const double cs = k == 32 ? -1 : k == 0 ? 1 : std::cos(phi), sn = k == 32 || k == 0 ? 0 : std::sin(phi);
+            if (xz) f << c + cs << " 0 " << sn << "\n";
+            else f << cs << " " << sn << " 0\n";
+        }
+    };
+    ring("a.txt", 0, false);
+    ring("hopf.txt", 1, true);
+    ring("apart.txt", 2.5, true);
+    ring("touch.txt", 2, true);
+    const std::string a = q(dir.path() / "a.txt");
+    auto r = test::runDgv("gln " + a + " " + q(dir.path() / "hopf.txt"));
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::Contains("gln: 1\n") || Catch::Contains("gln: -1\n"));
+    CHECK_THAT(r.output, Catch::Contains("raw: ") && Catch::Contains("bound: "));
+    r = test::runDgv("gln " + a + " " + q(dir.path() / "apart.txt"));
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::Contains("gln: 0\n"));
+    r = test::runDgv("gln " + a + " " + q(dir.path() / "hopf.txt") + " --method seed --tolerance 1");
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::Contains("method: seed"));
+    // Intersecting curves: the linking number is undefined; exit 1.
+    r = test::runDgv("gln " + a + " " + q(dir.path() / "touch.txt"));
     CHECK(r.exitCode == 1);
-    CHECK_THAT(r.output, Catch::Contains("not built yet"));
+    CHECK_THAT(r.output, Catch::Contains("intersect"));
+    // Bad curve files: one line naming the file and the line, exit 2.
+    struct Bad {
+        std::string text, expected;
+    };
+    for (const Bad& b : std::vector<Bad>{{"0 0 0\n1 0 0\n1 x 0\n0 1 0\n", "line 3"},
+                                         {"0 0 0\n1 0 0\n# c\n1 1\n", "line 4"},
+                                         {"0 0 0\n1 nan 0\n0 1 0\n", "line 2"},
+                                         {"0 0 0\n1 0 0\n", "at least 3 vertices"}}) {
+        INFO(b.text);
+        std::ofstream(dir.path() / "bad.txt") << b.text;
+        r = test::runDgv("gln " + a + " " + q(dir.path() / "bad.txt"));
+        CHECK(r.exitCode == 2);
+        CHECK(lineCount(r.output) == 1);
+        CHECK_THAT(r.output, Catch::Contains("bad.txt") && Catch::Contains(b.expected));
+    }
+    r = test::runDgv("gln " + a + " " + q(dir.path() / "absent.txt"));
+    CHECK(r.exitCode == 2);
+    CHECK_THAT(r.output, Catch::Contains("absent.txt"));
 }
 
 TEST_CASE("cli: bad scenes give one line naming file and path, exit 2, and write nothing", "[app][cli]") {
@@ -126,6 +178,59 @@ TEST_CASE("cli: render writes a numbered PNG sequence and nothing else", "[app][
         CHECK_THAT(r2.output, Catch::Contains("outside the scene's range 1-2"));
         CHECK_FALSE(fs::exists(dir.path() / "x"));
     }
+}
+
+TEST_CASE("cli: render with a keyframed camera, --resolution and --gl-backend", "[app][cli][render]") {
+    test::TempDir dir("cli_render_keys");
+    const fs::path scene = writeSmallScene(dir.path(), R"(,
+  "camera": {"type": "keyframed", "keys": [{"frame": 1, "eye": [0, 0.5, 3], "target": [0, 0, 0]},
+                                           {"frame": 2, "eye": [3, 0.5, 0], "target": [0, 0, 0], "fov": 25}]})");
+    const fs::path out = dir.path() / "frames";
+    auto r = test::runDgv("-q render " + q(scene) + " --resolution 80x40 --gl-backend osmesa --contact-sheet --out " +
+                          q(out));
+    INFO(r.output);
+    REQUIRE(r.exitCode == 0);
+    const std::string png = readBytes(out / "small.0001.png");
+    REQUIRE(png.size() > 24);
+    auto be32 = [&](std::size_t at) {
+        return (unsigned(static_cast<unsigned char>(png[at])) << 24) | (unsigned(static_cast<unsigned char>(png[at + 1])) << 16) |
+               (unsigned(static_cast<unsigned char>(png[at + 2])) << 8) | unsigned(static_cast<unsigned char>(png[at + 3]));
+    };
+    CHECK(be32(16) == 80u);  // IHDR width, height
+    CHECK(be32(20) == 40u);
+    // the camera moved between the keys
+    CHECK(readBytes(out / "small.0002.png") != png);
+    // the contact sheet: 2 frames side by side with 4-pixel gaps
+    const std::string sheet = readBytes(out / "small.contact.png");
+    REQUIRE(sheet.size() > 24);
+    CHECK(filesIn(out) == std::vector<std::string>{"small.0001.png", "small.0002.png", "small.contact.png"});
+    auto sheet32 = [&](std::size_t at) { return (unsigned(static_cast<unsigned char>(sheet[at + 2])) << 8) | unsigned(static_cast<unsigned char>(sheet[at + 3])); };
+    CHECK(sheet32(16) == 2 * 80u + 3 * 4u);
+    CHECK(sheet32(20) == 40u + 2 * 4u);
+    // --movie needs ffmpeg: without it, a clear one-line error before anything is rendered
+    if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) {
+        auto m = test::runDgv("render " + q(scene) + " --movie --out " + q(dir.path() / "m"));
+        CHECK(m.exitCode == 2);
+        CHECK_THAT(m.output, Catch::Contains("ffmpeg is not on PATH"));
+        CHECK_FALSE(fs::exists(dir.path() / "m"));
+    } else {
+        auto m = test::runDgv("-q render " + q(scene) + " --movie --out " + q(dir.path() / "m"));
+        CHECK(m.exitCode == 0);
+        CHECK(fs::file_size(dir.path() / "m" / "small.mp4") > 0);
+    }
+
+    for (const char* bad : {"--resolution 80", "--resolution 0x40", "--resolution 80x40x2", "--gl-backend vulkan"}) {
+        auto b = test::runDgv("render " + q(scene) + " " + bad + " --out " + q(dir.path() / "x"));
+        INFO(bad << ": " << b.output);
+        CHECK(b.exitCode == 2);
+        CHECK(lineCount(b.output) <= 2);
+        CHECK_FALSE(fs::exists(dir.path() / "x"));
+    }
+    const fs::path badKeys = writeSmallScene(dir.path(), R"(,
+  "camera": {"type": "keyframed", "keys": [{"frame": 2, "eye": [0, 0.5, 3]}, {"frame": 1, "eye": [1, 0, 3]}]})");
+    auto k = test::runDgv("render " + q(badKeys) + " --out " + q(dir.path() / "y"));
+    CHECK(k.exitCode == 2);
+    CHECK_THAT(k.output, Catch::Contains("camera.keys[1].frame") && Catch::Contains("increase"));
 }
 
 TEST_CASE("cli: info describes a mesh and its voxelisation", "[app][cli]") {

@@ -77,6 +77,7 @@ TEST_CASE("scene_json: a full scene maps onto the settings", "[io][scene]") {
     CHECK(s.forces[1].axis == Vec3::UnitY());  // normalised
     CHECK(s.forces[1].strength.at(5.5) == Approx(2.5));
     CHECK(s.forces[1].strength.at(100) == Approx(5));
+    CHECK(s.forces[1].falloff == 1);  // the vortex's default; an attractor's is 2
     REQUIRE(s.colliders.size() == 2);
     CHECK(s.colliders[0].height == -1);
     CHECK(s.camera.type == CameraType::LookAt);
@@ -145,6 +146,10 @@ TEST_CASE("scene_json: every bad input names the file, the JSON path and the pro
          "forces[0].strength[1]: key frames must increase"},
         {R"({"objects": [{"primitive": {"type": "sphere"}}], "forces": [{"type": "gravity", "direction": [0, 0, 0]}]})",
          "forces[0].direction: expected a non-zero direction"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "forces": [{"type": "attractor", "softening": 0}]})",
+         "forces[0].softening: expected a positive number, got 0"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "forces": [{"type": "vortex", "falloff": 5}]})",
+         "forces[0].falloff: expected a number in [0, 4], got 5"},
         {R"({"objects": [{"primitive": {"type": "sphere"}}], "colliders": [{"type": "mesh"}]})",
          "colliders[0].mesh: missing; a mesh collider needs a mesh file"},
         {R"({"objects": [{"primitive": {"type": "sphere"}}], "substeps": 0})",
@@ -156,6 +161,28 @@ TEST_CASE("scene_json: every bad input names the file, the JSON path and the pro
         CHECK_THAT(msg, Catch::Contains(c.expected));
         CHECK(msg.find('\n') == std::string::npos);  // one line
     }
+}
+
+TEST_CASE("scene_json: keyframed camera and crease angle", "[io][scene][render]") {
+    const SceneDesc s = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}],
+      "camera": {"type": "keyframed", "fov": 30, "keys": [
+        {"frame": 1, "eye": [0, 1, 5], "target": [0, 0, 0]},
+        {"frame": 24, "eye": [5, 1, 0], "target": [0, 0.5, 0], "fov": 20}]},
+      "render": {"crease_degrees": 60}})", "k.json");
+    REQUIRE(s.camera.type == CameraType::Keyframed);
+    REQUIRE(s.camera.keys.size() == 2);
+    CHECK(s.camera.keys[0].fovDegrees == 30);  // the camera's fov is the keys' default
+    CHECK(s.camera.keys[1].frame == 24);
+    CHECK(s.camera.keys[1].target.y() == 0.5);
+    CHECK(s.camera.keys[1].fovDegrees == 20);
+    CHECK(s.render.creaseDegrees == 60);
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "camera": {"type": "keyframed"}})"),
+               Catch::Contains("camera.keys: missing"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "camera": {"type": "keyframed",
+               "keys": [{"frame": 1, "eye": [0, 5, 0], "target": [0, 0, 0]}]}})"),
+               Catch::Contains("camera.keys[0].eye: the view direction must not be parallel to up"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"crease_degrees": 200}})"),
+               Catch::Contains("render.crease_degrees"));
 }
 
 TEST_CASE("scene_json: missing, folder and unreadable scene files", "[io][scene]") {
@@ -172,10 +199,47 @@ TEST_CASE("scene_json: every shipped scene loads", "[io][scene]") {
         if (entry.path().extension() != ".json") continue;
         INFO(entry.path());
         SceneDesc s = loadScene(entry.path());
-        CHECK_FALSE(s.objects.empty());
+        CHECK((!s.objects.empty() || s.curves.size() == 2));  // volumes, or the GLN figures' curves
         for (const ObjectDesc& o : s.objects)
             if (!o.isPrimitive) CHECK(fs::exists(o.meshPath));
         ++count;
     }
     CHECK(count >= 2);
+}
+
+TEST_CASE("scene_json: curves (the GLN figures) map onto the settings and are validated", "[io][scene][gln]") {
+    const SceneDesc s = parseScene(R"({
+      "curves": [ { "name": "a", "ring": { "centre": [1, 2, 3], "normal": [0, 0, 2], "radius": 0.5, "segments": 64 },
+                    "color": [1, 1, 1], "tube_radius": 0.1 },
+                  { "file": "b.txt", "motion": [[1, [0, 0, 0]], [11, [10, 0, 0]]] } ],
+      "gln": { "seed_tolerances": [4, 0.5] } })", "dir/scene.json");
+    REQUIRE(s.curves.size() == 2);
+    CHECK(s.objects.empty());
+    CHECK(s.curves[0].centre == Vec3(1, 2, 3));
+    CHECK(s.curves[0].normal == Vec3(0, 0, 1));
+    CHECK(s.curves[0].segments == 64);
+    CHECK(s.curves[0].tubeRadius == 0.1);
+    CHECK(s.curves[0].curvePath.empty());
+    CHECK(fs::path(s.curves[1].curvePath).filename() == "b.txt");
+    CHECK(s.curves[1].name == "curve1");
+    CHECK(s.curves[1].offsetAt(6) == Vec3(5, 0, 0));
+    CHECK(s.curves[1].offsetAt(-3) == Vec3(0, 0, 0));
+    CHECK(s.curves[1].offsetAt(20) == Vec3(10, 0, 0));
+    CHECK(s.gln.seedTolerances == std::vector<Real>{4, 0.5});
+    const std::string ring = R"({"ring": {"radius": 1}})";
+    const std::pair<std::string, std::string> bad[] = {
+        {"{\"curves\": [" + ring + "]}", "curves: expected exactly 2 curves"},
+        {"{\"curves\": [" + ring + ", {}]}", "curves[1]: give exactly one of 'file' (a curve file) or 'ring'"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {"radius": -1}}]})", "curves[1].ring.radius: expected a positive number"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {"segments": 2}}]})", "curves[1].ring.segments: expected an integer in [3"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {}, "motion": [[2, [0, 0, 0]], [1, [1, 1, 1]]]}]})", "curves[1].motion[1]: key frames must increase"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {}, "motion": [[2, [0, 0]]]}]})", "curves[1].motion[0]: expected a [frame, [x, y, z]] key"},
+        {"{\"curves\": [" + ring + ", " + ring + R"(], "gln": {"seed_tolerances": [0]}})", "gln.seed_tolerances[0]: expected a number in (0"},
+        {"{\"curves\": [" + ring + ", " + ring + R"(], "objects": [{"primitive": {"type": "sphere"}}]})", "curves: a scene has either objects or curves"},
+        {R"({"curves": [{"name": "x", "ring": {}}, {"name": "x", "ring": {}}]})", "curves[1].name: duplicate curve name"},
+    };
+    for (const auto& [text, expected] : bad) {
+        INFO(text);
+        CHECK_THAT(errorOf(text), Catch::Contains(expected));
+    }
 }
