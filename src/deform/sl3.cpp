@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace dgv {
 
@@ -148,7 +149,7 @@ Real bracketedNewton(F fdf, Real a, Real b, Real x, Real tol, int& iterations) {
         fdf(x, f, df);
         if (std::abs(f) <= Real(2e-16)) return x;  // ln(product) at round-off
         (f < 0 ? a : b) = x;
-        Real next = x - f / df;
+        Real next = std::isfinite(df) && df != 0 ? x - f / df : Real(0.5) * (a + b);
         if (!(next >= a && next <= b)) next = Real(0.5) * (a + b);  // NaN-safe
         if (std::abs(next - x) <= tol || b - a <= tol) return next;
         x = next;
@@ -195,7 +196,9 @@ Sl3Result projectToSL3Nearest(const Mat3& M) {
             Real root = 0;
             const Real ti = plusRoot(lambda, i, root);
             value += std::log(ti);
-            slope += Real(1) / (ti * root);
+            // At lambda = lo the smallest root is 0 and the slope is infinite (no division: the
+            // existence check g(lo) evaluates there).
+            slope += root > 0 ? Real(1) / (ti * root) : std::numeric_limits<Real>::infinity();
         }
     };
     Vec3 t;
