@@ -1,4 +1,5 @@
 #pragma once
+#include <cmath>
 /// @file types.hpp
 /// @brief dgv's one scalar and its aliases. Double everywhere in the core; float only at the
 /// edges (io/vdb_write, render/). See docs/conventions.md.
@@ -40,5 +41,14 @@ struct Box3 {
     Vec3 size() const { return max - min; }
     Vec3 centre() const { return 0.5 * (min + max); }
 };
+
+/// Component-wise std::isfinite of an Eigen matrix or vector. (Eigen's allFinite() computes
+/// x - x, which raises FE_INVALID on infinities and trips the tests' floating-point traps.)
+template <typename M>
+bool allFiniteNoTrap(const M& m) {
+    for (Index i = 0; i < m.size(); ++i)
+        if (!std::isfinite(m.data()[i])) return false;
+    return true;
+}
 
 }  // namespace dgv

@@ -26,15 +26,6 @@ namespace dgv {
 
 namespace {
 
-/// Component-wise std::isfinite (Eigen's allFinite() computes x - x, which raises FE_INVALID
-/// on infinities and trips the tests' floating-point traps).
-template <typename M>
-bool finite(const M& m) {
-    for (Index i = 0; i < m.size(); ++i)
-        if (!std::isfinite(m.data()[i])) return false;
-    return true;
-}
-
 constexpr Real kPi = 3.14159265358979323846;
 constexpr int kMaxResolution = 2048;
 /// Largest grid extent along one axis: keeps the fixed-point edge functions inside int64.
@@ -463,7 +454,7 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
                                              ", out of range (" + std::to_string(mesh.vertices.size()) +
                                              " vertices)");
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
-        if (!finite(mesh.vertices[v]))
+        if (!allFiniteNoTrap(mesh.vertices[v]))
             throw InputError("", "", "vertex " + std::to_string(v) + " has a non-finite coordinate");
 
     // Placement: n voxels of size h centred on the bounds along each axis (n h >= extent), plus

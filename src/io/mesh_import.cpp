@@ -30,15 +30,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// Component-wise std::isfinite (Eigen's allFinite() computes x - x, which raises FE_INVALID
-/// on infinities and trips the tests' floating-point traps).
-template <typename M>
-bool finite(const M& m) {
-    for (Index i = 0; i < m.size(); ++i)
-        if (!std::isfinite(m.data()[i])) return false;
-    return true;
-}
-
 /// Node hierarchies deeper than this are refused (a cycle, or a file built to exhaust the stack).
 constexpr int kMaxNodeDepth = 512;
 /// Instanced meshes may not expand beyond this many vertices (indices are int).
@@ -178,11 +169,11 @@ struct Collector {
         for (unsigned v = 0; v < m->mNumVertices; ++v) {
             const aiVector3D& q = m->mVertices[v];
             const Vec3 local(q.x, q.y, q.z);
-            if (!finite(local))
+            if (!allFiniteNoTrap(local))
                 throw InputError(path, "", "mesh '" + name + "' vertex " + std::to_string(v) +
                                                " has a non-finite coordinate");
             const Vec3 world = linear * local + translation;
-            if (!finite(world))
+            if (!allFiniteNoTrap(world))
                 throw InputError(path, "", "mesh '" + name + "' vertex " + std::to_string(v) +
                                                " is not finite after the node transforms");
             mesh.vertices.push_back(world);
@@ -215,7 +206,7 @@ struct Collector {
         Mat4 local;
         local << a.a1, a.a2, a.a3, a.a4, a.b1, a.b2, a.b3, a.b4, a.c1, a.c2, a.c3, a.c4, a.d1, a.d2,
             a.d3, a.d4;
-        if (!finite(local))
+        if (!allFiniteNoTrap(local))
             throw InputError(path, "", "node '" + str(node->mName) + "' has a non-finite transform");
         const Mat4 world = parent * local;
         const bool nodeSelected = selected || (!wanted.empty() && str(node->mName) == wanted);

@@ -30,7 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const dgv::TriangleMesh mesh = dgv::importMesh(path);
         if (mesh.triangles.empty()) std::abort();
         for (const auto& v : mesh.vertices)
-            if (!v.allFinite()) std::abort();
+            if (!dgv::allFiniteNoTrap(v)) std::abort();
         for (const auto& t : mesh.triangles)
             for (int k = 0; k < 3; ++k)
                 if (t[k] < 0 || static_cast<std::size_t>(t[k]) >= mesh.vertices.size()) std::abort();
