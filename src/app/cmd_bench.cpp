@@ -17,17 +17,17 @@ int runBench(const BenchCommandOptions& options) {
     using Fn = std::function<void(std::ostream&, const bench::BenchOptions&)>;
     const std::map<std::string, Fn> built = {
         {"geometry", bench::geometry}, {"voxelise", bench::voxelise}, {"render", bench::render},
-        {"gln", bench::gln}, {"reconstruct", bench::reconstruct}};
+        {"gln", bench::gln}, {"reconstruct", bench::reconstruct}, {"volume", bench::volume},
+        {"vdb", bench::vdb}};
     const std::map<std::string, std::string> coming = {
-        {"step", "the dynamics"},
-        {"vdb", "the VDB caches"}};
+        {"step", "the dynamics"}};
     std::vector<std::string> names = options.names;
     if (names.empty())
         for (const auto& [name, fn] : built) names.push_back(name);
     for (const std::string& n : names) {
         if (built.count(n)) continue;
         if (coming.count(n)) throw InputError("bench", n, "not built yet (comes with " + coming.at(n) + ")");
-        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render, gln, reconstruct");
+        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render, gln, reconstruct, volume, vdb");
     }
     bench::BenchOptions bo;
     bo.repeats = options.repeats;

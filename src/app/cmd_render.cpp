@@ -2,6 +2,8 @@
 
 #include "app/commands.hpp"
 #include "app/curve_scene.hpp"
+#include "app/resume.hpp"
+#include "app/dynamics_run.hpp"
 #include "app/scene_build.hpp"
 #include "base/errors.hpp"
 #include "base/progress.hpp"
@@ -20,36 +22,12 @@
 #include <cstdlib>
 #include <cstdio>
 #include <filesystem>
+#include <utility>
 
 namespace dgv::app {
 namespace fs = std::filesystem;
 
 namespace {
-
-/// Parses "A-B" or "N" and checks it lies within the scene's frame range.
-void parseFrameRange(const std::string& text, const SceneDesc& scene, int& first, int& last) {
-    auto bad = [&](const std::string& what) { throw InputError("--frames", "", what); };
-    try {
-        std::size_t pos = 0;
-        std::size_t dash = text.find('-', 1);
-        if (dash == std::string::npos) {
-            first = last = std::stoi(text, &pos);
-            if (pos != text.size()) bad("expected A-B or N, got \"" + text + "\"");
-        } else {
-            first = std::stoi(text.substr(0, dash), &pos);
-            if (pos != dash) bad("expected A-B or N, got \"" + text + "\"");
-            std::string rest = text.substr(dash + 1);
-            last = std::stoi(rest, &pos);
-            if (pos != rest.size()) bad("expected A-B or N, got \"" + text + "\"");
-        }
-    } catch (const std::logic_error&) {
-        bad("expected A-B or N, got \"" + text + "\"");
-    }
-    if (last < first) bad("the range " + text + " is empty (B < A)");
-    if (first < scene.frameStart || last > scene.frameEnd)
-        bad("frames " + text + " lie outside the scene's range " + std::to_string(scene.frameStart) + "-" +
-            std::to_string(scene.frameEnd));
-}
 
 /// Parses "WxH" (16..16384 each).
 void parseResolution(const std::string& text, int& width, int& height) {
@@ -179,6 +157,7 @@ int runRender(const RenderOptions& options) {
     int first = scene.frameStart, last = scene.frameEnd;
     if (!options.frames.empty()) parseFrameRange(options.frames, scene, first, last);
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();
+    checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out", options.outDir.empty() ? "output.dir" : "");
     if (options.width > 0) scene.render.width = options.width;
     if (options.height > 0) scene.render.height = options.height;
     if (!options.resolution.empty()) parseResolution(options.resolution, scene.render.width, scene.render.height);
@@ -193,11 +172,7 @@ int runRender(const RenderOptions& options) {
                                                  std::to_string(scene.render.supersample) + ") must stay within 16384");
     if (options.movie && !onPath("ffmpeg"))
         throw InputError("--movie", "", "ffmpeg is not on PATH: install it (Debian: apt-get install ffmpeg) or drop --movie");
-    if (scene.output.vdb)
-        throw InputError(scene.path, "output.vdb", "VDB caches are not built yet (a coming milestone); set it to false");
     if (!scene.curves.empty()) return renderCurveScene(scene, first, last);  // the GLN figures
-    if (!scene.forces.empty() || !scene.colliders.empty())
-        logWarning(scene.path + ": forces and colliders are validated but not simulated yet; objects render at rest");
 
     // Build every object before anything is written: bad meshes or settings fail up front.
     std::vector<BuiltObject> objects;
@@ -207,6 +182,11 @@ int runRender(const RenderOptions& options) {
         bounds.extend(meshBounds(objects.back().restMesh));
         logInfo(describe(objects.back()));
     }
+
+    // The dynamics (a scene with forces or initial velocities): frames are sequential in time,
+    // so a range A-B simulates from the scene's first frame; stats.csv is rewritten each frame.
+    DynamicsRun dynamics(scene, objects, scene.output.vdb);
+    dynamics.setFirstWrittenFrame(first);
 
     RenderSettings rs;
     rs.width = scene.render.width;
@@ -242,6 +222,7 @@ int runRender(const RenderOptions& options) {
     PngWriteQueue writer;
     std::vector<Image> thumbs;
     std::string inFlight;
+    int kept = 0;  // --resume: complete frames already on disk, not rendered again
     for (int frame = first; frame <= last; ++frame) {
         if (cancelRequested()) {
             writer.finish();
@@ -250,8 +231,20 @@ int runRender(const RenderOptions& options) {
             std::fprintf(stderr, "dgv: interrupted before frame %d; the frames written are complete\n", frame);
             return kExitInterrupted;
         }
-        for (std::size_t i = 0; i < objects.size(); ++i)
-            deformVertices(objects[i].embedding, objects[i].state, frameScene.meshes[i].positions);
+        dynamics.advanceTo(frame);
+        if (Image done; options.resume && frameIsComplete(framePath(scene.output.dir, scene.name, frame), frame, rs.width,
+                                                          rs.height, options.contactSheet ? &done : nullptr)) {
+            writer.finish();  // keeps the progress lines in frame order
+            if (!inFlight.empty()) progress.step(std::exchange(inFlight, std::string()));
+            progress.step(framePath(scene.output.dir, scene.name, frame) + " (complete, kept)");
+            if (options.contactSheet) thumbs.push_back(thumbnail(done, 320));
+            ++kept;
+            continue;
+        }
+        for (std::size_t i = 0; i < objects.size(); ++i) {
+            const DeformableBody* body = dynamics.body(i);
+            deformVertices(objects[i].embedding, body ? body->state() : objects[i].state, frameScene.meshes[i].positions);
+        }
         Image image = renderer.render(frameScene, frameCamera(scene, bounds, frame, aspect));
         const std::string path = framePath(scene.output.dir, scene.name, frame);
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
@@ -301,6 +294,7 @@ int runRender(const RenderOptions& options) {
         if (ec) throw RuntimeError(moviePath.string() + ": " + ec.message());
         logInfo("wrote the preview movie " + moviePath.string());
     }
+    if (options.resume) logInfo("resume: kept " + std::to_string(kept) + " complete frames, rendered " + std::to_string(last - first + 1 - kept));
     logInfo("wrote " + std::to_string(last - first + 1) + " frames: " + scene.output.dir + "/" + scene.name +
             ".####.png");
     return kExitOk;

@@ -17,8 +17,17 @@ struct RenderOptions {
     std::string glBackend = "auto";  ///< auto | egl | osmesa
     bool contactSheet = false;  ///< also <out>/<name>.contact.png: the frames in a grid
     bool movie = false;         ///< also <out>/<name>.mp4 through ffmpeg (must be on PATH)
+    bool resume = false;        ///< skip frames whose PNG is already complete (app/resume.hpp)
 };
 int runRender(const RenderOptions& options);
+
+struct SimulateOptions {
+    std::string scene;
+    std::string frames;   ///< "A-B" or "N"; empty: the scene's range
+    std::string outDir;
+    bool vdb = false;
+};
+int runSimulate(const SimulateOptions& options);
 
 struct InfoOptions {
     std::string mesh;

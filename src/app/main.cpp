@@ -9,16 +9,49 @@
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <memory>
 #include <new>
+#include <stdexcept>
+#include <string>
 
 namespace {
 
 extern "C" void onSignal(int) {
     dgv::requestCancel();
     dgv::removePendingTemporaries();
+}
+
+/// A finite number > 0 (CLI::PositiveNumber prints DBL_MAX as its upper bound on failure).
+const CLI::Validator kPositive(
+    [](std::string& text) -> std::string {
+        try {
+            std::size_t pos = 0;
+            const double v = std::stod(text, &pos);
+            if (pos == text.size() && std::isfinite(v) && v > 0) return "";
+        } catch (const std::logic_error&) {
+        }
+        return "expected a positive number, got " + text;
+    },
+    "POSITIVE");
+
+/// An error message as one printable line: control characters (a newline in a JSON key, bytes
+/// of a binary file echoed by a parser) become \xNN, so the error stays one line.
+std::string oneLine(const char* message) {
+    std::string out;
+    for (const char* p = message; *p; ++p) {
+        const unsigned char c = static_cast<unsigned char>(*p);
+        if (c < 0x20 || c == 0x7f) {
+            char hex[8];
+            std::snprintf(hex, sizeof hex, "\\x%02x", c);
+            out += hex;
+        } else {
+            out += *p;
+        }
+    }
+    return out;
 }
 
 const char* kExitCodes =
@@ -53,12 +86,17 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}));
     cRender->add_flag("--contact-sheet", render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
     cRender->add_flag("--movie", render.movie, "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");
+    cRender->add_flag("--resume", render.resume,
+                      "Keep frames already complete on disk (a readable PNG of that frame); render the rest");
     cRender->footer(kExitCodes);
 
-    auto* cSim = cli.add_subcommand("simulate", "Simulate a scene and write caches (not built yet)");
-    std::string simScene;
-    cSim->add_option("scene", simScene, "Scene file")->required();
-    cSim->allow_extras();
+    app::SimulateOptions simulate;
+    auto* cSim = cli.add_subcommand("simulate", "Simulate a scene: <out>/stats.csv, and with --vdb the VDB cache <out>/vdb/<name>.####.vdb");
+    cSim->add_option("scene", simulate.scene, "Scene file (JSON, see scenes/README.md)")->required();
+    cSim->add_option("--frames", simulate.frames, "Last frame N, or A-B (frames before A are simulated, not written)");
+    cSim->add_option("--out", simulate.outDir, "Output folder (default: the scene's output.dir)");
+    cSim->add_flag("--vdb", simulate.vdb, "Write the VDB cache (also on when the scene sets output.vdb)");
+    cSim->footer(kExitCodes);
 
     app::GlnOptions gln;
     auto* cGln = cli.add_subcommand("gln", "Gauss linking number of two closed curves");
@@ -67,7 +105,7 @@ int main(int argc, char** argv) {
     cGln->add_option("--method", gln.method, "exact or seed")->capture_default_str()
         ->check(CLI::IsMember({"exact", "seed"}));
     cGln->add_option("--tolerance", gln.tolerance, "Seed method's sampling tolerance")->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(kPositive);
 
     app::ImgdiffOptions diff;
     auto* cDiff = cli.add_subcommand("imgdiff", "Compare two images by the golden-image rule; exit 0 if they match, 1 if not");
@@ -86,7 +124,7 @@ int main(int argc, char** argv) {
     cInfo->add_option("mesh", info.mesh, "Mesh file (any format assimp reads)")->required();
     cInfo->add_option("--mesh-name", info.meshName, "Only the mesh or node of this name");
     auto* oSize = cInfo->add_option("--voxel-size", info.voxelSize, "Voxel size in world units")
-                      ->check(CLI::PositiveNumber);
+                      ->check(kPositive);
     auto* oRes = cInfo->add_option("--resolution", info.resolution, "Lattice points along the longest side (default 64)")
                      ->check(CLI::Range(2, 2048));
     oSize->excludes(oRes);
@@ -106,7 +144,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return cli.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "dgv: %s (see dgv --help)\n", e.what());
+        std::fprintf(stderr, "dgv: %s (see dgv --help)\n", oneLine(e.what()).c_str());
         return kExitBadInput;
     }
 
@@ -124,26 +162,28 @@ int main(int argc, char** argv) {
         if (*cInfo) return app::runInfo(info);
         if (*cDiff) return app::runImgdiff(diff);
         if (*cBench) return app::runBench(bench);
-        if (*cSim) {
-            std::fprintf(stderr, "dgv simulate: not built yet: dynamics and VDB caches are the next "
-                                 "milestones; 'dgv render %s' renders the scene at rest\n", simScene.c_str());
-            return kExitFailure;
-        }
+        if (*cSim) return app::runSimulate(simulate);
         if (*cGln) return app::runGln(gln);
         app::RenderOptions def;
         def.scene = app::defaultScenePath();
         return app::runRender(def);
     } catch (const InputError& e) {
-        std::fprintf(stderr, "dgv: error: %s\n", e.what());
+        std::fprintf(stderr, "dgv: error: %s\n", oneLine(e.what()).c_str());
         return kExitBadInput;
     } catch (const RuntimeError& e) {
-        std::fprintf(stderr, "dgv: error: %s\n", e.what());
+        // SIGINT/SIGTERM removes the temporary being written, which fails that write: an
+        // interruption, not an I/O error.
+        if (cancelRequested()) {
+            std::fprintf(stderr, "dgv: interrupted; the files already written are complete\n");
+            return kExitInterrupted;
+        }
+        std::fprintf(stderr, "dgv: error: %s\n", oneLine(e.what()).c_str());
         return kExitFailure;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "dgv: error: out of memory\n");
         return kExitFailure;
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "dgv: error: %s\n", e.what());
+        std::fprintf(stderr, "dgv: error: %s\n", oneLine(e.what()).c_str());
         return kExitFailure;
     }
 }

@@ -8,8 +8,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 namespace dgv {
+
+struct VolumeProjectionCache::Impl {
+    std::vector<Index> cellOfRow;  ///< the active cells the hierarchy was built for
+    bool parity = true;
+    std::unique_ptr<AggregationMultigrid> mg;
+};
 
 namespace {
 
@@ -69,15 +76,9 @@ inline std::array<Vec3, 8> gatherCorners(const LatticeCells& cells, const std::v
     return v;
 }
 
-/// Deterministic parallel dot product.
-Real dot(const std::vector<Real>& a, const std::vector<Real>& b) {
-    return parallelReduce(
-        static_cast<Index>(a.size()), Real(0),
-        [&](Real& acc, Index i) { acc += a[at(i)] * b[at(i)]; },
-        [](Real x, Real y) { return x + y; });
-}
-
 constexpr int kStencil = 27;
+/// Inexact Gauss-Newton: linear tolerance = kSafety max(err, tolerance / err) (measured).
+constexpr Real kSafety = 1;
 
 }  // namespace
 
@@ -201,8 +202,7 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
         for (std::size_t k = 0; k < 8; ++k) cellsOfPoint[at(cells.corners[at(c)][k])][k] = c;
 
     std::vector<std::array<Vec3, 8>> grad(at(nc));
-    std::vector<Real> r(at(nc)), lambda(at(nc)), A(at(nc) * kStencil), invDiag(at(nc));
-    std::vector<Real> res(at(nc)), z(at(nc)), dir(at(nc)), Ad(at(nc));
+    std::vector<Real> r(at(nc)), lambda(at(nc), 0);
     std::vector<unsigned char> active(at(nc), 1);
 
     auto evaluate = [&]() {
@@ -225,17 +225,6 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
             [&](Real& acc, Index c) { if (active[at(c)]) acc = std::max(acc, std::abs(r[at(c)])); },
             [](Real a, Real b) { return std::max(a, b); });
     };
-    auto multiply = [&](const std::vector<Real>& x, std::vector<Real>& y) {
-        parallelFor(nc, [&](Index c) {
-            Real s = 0;
-            const std::size_t base = at(c) * kStencil;
-            for (std::size_t k = 0; k < kStencil; ++k) {
-                const Index d = nbCell[base + k];
-                if (d >= 0) s += A[base + k] * x[at(d)];
-            }
-            y[at(c)] = s;
-        });
-    };
 
     Real err = evaluate();
     report.maxErrorBefore = err;
@@ -243,92 +232,108 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
         nc, Index(0), [&](Index& acc, Index c) { acc += active[at(c)] ? 0 : 1; },
         [](Index a, Index b) { return a + b; });
 
-    while (err > settings.tolerance && report.iterations < settings.maxIterations) {
+    std::array<std::vector<Index>, 8> colourCells;
+    for (Index c = 0; c < nc; ++c)
+        if (active[at(c)]) {
+            const Vec3i& u = cells.lowest[at(c)];
+            colourCells[static_cast<std::size_t>((u.x() & 1) | ((u.y() & 1) << 1) | ((u.z() & 1) << 2))].push_back(c);
+        }
+
+    // The normal matrix J J^T on the active cells (which depend on the pins only): its
+    // structure is fixed, its values are refilled on each Gauss-Newton iteration.
+    std::vector<Index> rowOf(at(nc), -1);
+    std::vector<Index> cellOfRow;
+    for (Index c = 0; c < nc; ++c)
+        if (active[at(c)]) {
+            rowOf[at(c)] = static_cast<Index>(cellOfRow.size());
+            cellOfRow.push_back(c);
+        }
+    const Index rows = static_cast<Index>(cellOfRow.size());
+    SparseRows S;
+    S.rows = rows;
+    S.start.assign(at(rows) + 1, 0);
+    std::vector<unsigned char> slotOf;  // stencil slot of each entry
+    std::vector<Vec3i> coords(at(rows));
+    for (Index i = 0; i < rows; ++i) {
+        const Index c = cellOfRow[at(i)];
+        coords[at(i)] = cells.lowest[at(c)];
+        const std::size_t base = at(c) * kStencil;
+        for (std::size_t k = 0; k < kStencil; ++k) {  // stencil order = increasing cell id
+            const Index d = nbCell[base + k];
+            if (d < 0 || !active[at(d)]) continue;
+            S.column.push_back(static_cast<int>(rowOf[at(d)]));
+            slotOf.push_back(static_cast<unsigned char>(k));
+        }
+        S.start[at(i) + 1] = static_cast<int>(S.column.size());
+    }
+    S.value.assign(S.column.size(), 0);
+    std::vector<Real> rhs(at(rows)), sol(at(rows), 0);
+    CgWorkspace workspace;
+    // The multigrid: from the cache when it was built for these active cells, else built on
+    // the first iteration (and on every one without reuseMultigrid).
+    std::unique_ptr<AggregationMultigrid> ownMg;
+    const AggregationMultigrid* mg = nullptr;
+    VolumeProjectionCache::Impl* cache = nullptr;
+    if (settings.cache && settings.multigrid) {
+        if (!settings.cache->impl) settings.cache->impl = std::make_shared<VolumeProjectionCache::Impl>();
+        cache = settings.cache->impl.get();
+        if (cache->mg && cache->cellOfRow == cellOfRow && cache->parity == settings.parityAggregates) {
+            mg = cache->mg.get();
+        } else {
+            cache->mg.reset();
+            cache->cellOfRow = cellOfRow;
+            cache->parity = settings.parityAggregates;
+        }
+    }
+    MultigridSettings mgSettings;
+    mgSettings.parityAggregates = settings.parityAggregates;
+    mgSettings.eigenRatio = 100;  // measured best on the 137k ball (docs/math.md)
+    mgSettings.smootherDegree = 4;
+
+    while (err > settings.tolerance && report.iterations < settings.maxIterations && rows > 0) {
         ++report.iterations;
-        // Normal matrix (J J^T)_cd = sum over shared corners of grad_c . grad_d.
-        parallelFor(nc, [&](Index c) {
+        // (J J^T)_cd = sum over shared corners of grad_c . grad_d
+        parallelFor(rows, [&](Index i) {
+            const Index c = cellOfRow[at(i)];
             const std::size_t base = at(c) * kStencil;
-            for (int s = 0; s < kStencil; ++s) {
+            for (int e = S.start[at(i)]; e < S.start[at(i) + 1]; ++e) {
+                const int s = slotOf[static_cast<std::size_t>(e)];
                 const Index d = nbCell[base + static_cast<std::size_t>(s)];
                 Real sum = 0;
-                if (d >= 0 && active[at(c)] && active[at(d)]) {
-                    for (int k = 0; k < 8; ++k) {
-                        const int kd = sharedCorner[s][k];
-                        if (kd >= 0) sum += grad[at(c)][static_cast<std::size_t>(k)].dot(grad[at(d)][static_cast<std::size_t>(kd)]);
-                    }
+                for (int k = 0; k < 8; ++k) {
+                    const int kd = sharedCorner[s][k];
+                    if (kd >= 0) sum += grad[at(c)][static_cast<std::size_t>(k)].dot(grad[at(d)][static_cast<std::size_t>(kd)]);
                 }
-                A[base + static_cast<std::size_t>(s)] = sum;
+                S.value[static_cast<std::size_t>(e)] = sum;
             }
-            const Real diag = A[base + 13];
-            invDiag[at(c)] = diag > 0 ? Real(1) / diag : Real(0);
         });
-        if (settings.multigrid) {
-            // A lambda = r on the active cells, by multigrid-preconditioned CG (solve/multigrid).
-            std::vector<Index> rowOf(at(nc), -1);
-            std::vector<Index> cellOfRow;
-            for (Index c = 0; c < nc; ++c)
-                if (active[at(c)]) {
-                    rowOf[at(c)] = static_cast<Index>(cellOfRow.size());
-                    cellOfRow.push_back(c);
-                }
-            const Index rows = static_cast<Index>(cellOfRow.size());
-            SparseRows S;
-            S.rows = rows;
-            S.start.assign(at(rows) + 1, 0);
-            std::vector<Vec3i> coords(at(rows));
-            for (Index i = 0; i < rows; ++i) {
-                const Index c = cellOfRow[at(i)];
-                coords[at(i)] = cells.lowest[at(c)];
-                const std::size_t base = at(c) * kStencil;
-                for (std::size_t k = 0; k < kStencil; ++k) {  // stencil order = increasing cell id
-                    const Index d = nbCell[base + k];
-                    if (d < 0 || !active[at(d)] || (A[base + k] == 0 && k != 13)) continue;
-                    S.column.push_back(static_cast<int>(rowOf[at(d)]));
-                    S.value.push_back(A[base + k]);
-                }
-                S.start[at(i) + 1] = static_cast<int>(S.column.size());
+        parallelFor(rows, [&](Index i) {
+            rhs[at(i)] = r[at(cellOfRow[at(i)])];
+            sol[at(i)] = 0;
+        });
+        if (settings.multigrid && (!mg || (!settings.reuseMultigrid && !cache))) {
+            ownMg.reset();
+            ownMg = std::make_unique<AggregationMultigrid>(S, coords, mgSettings);
+            if (cache) {
+                cache->mg = std::move(ownMg);
+                mg = cache->mg.get();
+            } else {
+                mg = ownMg.get();
             }
-            std::vector<Real> rhs(at(rows)), sol(at(rows), 0);
-            for (Index i = 0; i < rows; ++i) rhs[at(i)] = r[at(cellOfRow[at(i)])];
-            if (rows > 0) {
-                const AggregationMultigrid mg(S, coords);
-                const SolveReport lin = conjugateGradients(S, &mg, rhs, sol, 1, settings.linearTolerance,
-                                                           0, settings.maxLinearIterations);
-                report.linearIterations += lin.iterations;
-            }
-            parallelFor(nc, [&](Index c) {
-                lambda[at(c)] = rowOf[at(c)] >= 0 ? sol[at(rowOf[at(c)])] : Real(0);
-            });
-        } else {
-        // PCG on A lambda = r (inactive rows: zero).
+        }
+        // Inexact Gauss-Newton: no more linear accuracy than the step can use. The step leaves
+        // about err^2 (the quadratic term) plus eta err, so eta ~ err on the way and
+        // eta ~ tolerance / err on the last step, with a safety factor.
+        const Real eta = settings.adaptiveLinearTolerance
+                             ? std::max(settings.linearTolerance,
+                                        std::min(Real(0.5), kSafety * std::max(err, settings.tolerance / err)))
+                             : settings.linearTolerance;
+        const SolveReport lin = conjugateGradients(S, mg, rhs, sol, 1, eta, 0,
+                                                   settings.maxLinearIterations, &workspace);
+        report.linearIterations += lin.iterations;
         parallelFor(nc, [&](Index c) {
-            lambda[at(c)] = 0;
-            res[at(c)] = active[at(c)] ? r[at(c)] : Real(0);
-            z[at(c)] = invDiag[at(c)] * res[at(c)];
-            dir[at(c)] = z[at(c)];
+            lambda[at(c)] = rowOf[at(c)] >= 0 ? sol[at(rowOf[at(c)])] : Real(0);
         });
-        const Real rr0 = dot(res, res);
-        Real rz = dot(res, z);
-        const Real stop = settings.linearTolerance * settings.linearTolerance * rr0;
-        for (int it = 0; it < settings.maxLinearIterations && rr0 > 0; ++it) {
-            multiply(dir, Ad);
-            const Real dAd = dot(dir, Ad);
-            if (!(dAd > 0)) break;
-            const Real alpha = rz / dAd;
-            parallelFor(nc, [&](Index c) {
-                lambda[at(c)] += alpha * dir[at(c)];
-                res[at(c)] -= alpha * Ad[at(c)];
-            });
-            ++report.linearIterations;
-            const Real rr = dot(res, res);
-            if (rr <= stop) break;
-            parallelFor(nc, [&](Index c) { z[at(c)] = invDiag[at(c)] * res[at(c)]; });
-            const Real rzNew = dot(res, z);
-            const Real beta = rzNew / rz;
-            rz = rzNew;
-            parallelFor(nc, [&](Index c) { dir[at(c)] = z[at(c)] + beta * dir[at(c)]; });
-        }
-        }
         // dx = -J^T lambda, gathered per point.
         parallelFor(np, [&](Index p) {
             if (isPinned(p)) return;
@@ -339,6 +344,25 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
             }
             positions[at(p)] += dx;
         });
+        // Local polish: nonlinear Gauss-Seidel (Kaczmarz) sweeps over the cells in 8 parity
+        // colours (cells of one colour share no corner): each cell moves its free corners along
+        // its volume gradient to its rest volume. Removes the rough, local part of the residual
+        // that the Krylov solve converges slowest on.
+        for (int sweep = 0; sweep < settings.localSweeps; ++sweep)
+            for (int colour = 0; colour < 8; ++colour)
+                parallelFor(Index(colourCells[colour].size()), [&](Index i) {
+                    const Index c = colourCells[colour][at(i)];
+                    std::array<Vec3, 8> g;
+                    const Real v = hexVolumeGradient(gatherCorners(cells, positions, c), g);
+                    Real gg = 0;
+                    for (std::size_t k = 0; k < 8; ++k) {
+                        if (isPinned(cells.corners[at(c)][k])) g[k].setZero();
+                        gg += g[k].squaredNorm();
+                    }
+                    if (!(gg > 0)) return;
+                    const Real step = (restVolumes[at(c)] - v) / gg;
+                    for (std::size_t k = 0; k < 8; ++k) positions[at(cells.corners[at(c)][k])] += step * g[k];
+                });
         err = evaluate();
     }
     report.converged = err <= settings.tolerance;

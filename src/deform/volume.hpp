@@ -16,6 +16,7 @@
 #include "geom/lattice.hpp"
 
 #include <array>
+#include <memory>
 #include <vector>
 
 namespace dgv {
@@ -45,14 +46,39 @@ std::vector<Real> cellVolumes(const LatticeCells& cells, const std::vector<Vec3>
 /// Sum of the cell volumes (deterministic: fixed blocks, combined in order).
 Real totalVolume(const LatticeCells& cells, const std::vector<Vec3>& positions);
 
+/// What projectVolumes keeps between calls on the same cells and pins (the dynamics calls it
+/// every step): the multigrid hierarchy, built from the first call's normal matrix and reused
+/// while the active cells are the same (rebuilt otherwise). Pass the same object to each call
+/// through VolumeProjectionSettings::cache; not shared between concurrent calls.
+struct VolumeProjectionCache {
+    struct Impl;                 ///< internal (volume.cpp)
+    std::shared_ptr<Impl> impl;  ///< empty until a call fills it
+};
+
 struct VolumeProjectionSettings {
     int maxIterations = 8;           ///< Gauss-Newton iterations
     Real tolerance = 1e-12;          ///< stop when max_c |V_c / V0_c - 1| <= tolerance
-    Real linearTolerance = 1e-8;     ///< relative residual of each linear solve (CG)
+    Real linearTolerance = 1e-8;     ///< relative residual of each linear solve (CG); the
+                                     ///< floor of the adaptive one (adaptiveLinearTolerance)
     int maxLinearIterations = 2000;  ///< CG iterations per Gauss-Newton iteration
-    /// Precondition the CG with the multigrid of solve/multigrid.hpp (built on each Gauss-Newton
-    /// iteration's normal matrix); false: Jacobi, far more iterations on large lattices.
+    /// Precondition the CG with the multigrid of solve/multigrid.hpp (built on the first
+    /// Gauss-Newton iteration's normal matrix, see reuseMultigrid and cache); false: Jacobi, far
+    /// more iterations on large lattices.
     bool multigrid = true;
+    /// Multigrid aggregates per parity class of the cells (MultigridSettings::parityAggregates):
+    /// the checkerboard modes are near-null modes of J J^T (docs/math.md).
+    bool parityAggregates = true;
+    /// Build the multigrid once per call, from the first iteration's normal matrix, and use it
+    /// for the later ones (their matrices differ by the small change of the gradients).
+    bool reuseMultigrid = true;
+    /// Inexact Gauss-Newton: each linear solve only as accurate as the step can use, relative
+    /// residual max(linearTolerance, min(0.5, max(err, tolerance / err))) with err the
+    /// current max cell error; false: linearTolerance on every step.
+    bool adaptiveLinearTolerance = true;
+    /// Nonlinear Gauss-Seidel sweeps over the cells after each Gauss-Newton step (8 colours).
+    int localSweeps = 2;
+    /// Optional: keeps the multigrid from call to call (setup is most of a call's cost).
+    VolumeProjectionCache* cache = nullptr;
 };
 
 /// Outcome of projectVolumes. Numerical trouble (no convergence) is reported, not thrown.
@@ -71,10 +97,12 @@ struct [[nodiscard]] VolumeProjectionReport {
 /// cell's exact volume returns to restVolumes[c]. Gauss-Newton on the #C constraints
 /// V_c(x) - V0_c = 0: each step is the minimum-norm solution dx = -J^T (J J^T)^-1 r, with the
 /// sparse normal matrix J J^T on the cell-adjacency graph (27-cell stencil) solved by conjugate
-/// gradients from zero multipliers, preconditioned by smoothed-aggregation multigrid (or Jacobi).
-/// Converges quadratically when the linear solves are accurate (2-4 iterations to 1e-13 from
-/// 1e-2 errors). Pinned points (pinned[p] != 0; may be empty = none) never move; cells with all
-/// corners pinned are left out (counted in `unconstrainable`).
+/// gradients from zero multipliers, preconditioned by smoothed-aggregation multigrid with parity
+/// aggregates (or Jacobi), each only as accurate as the step can use (inexact Gauss-Newton);
+/// after each step `localSweeps` nonlinear Gauss-Seidel sweeps over the cells remove localised
+/// peaks. From 3e-2 errors: 2 iterations to 1e-5, 3 to 1e-12 (docs/math.md). Pinned points
+/// (pinned[p] != 0; may be empty = none) never move; cells with all corners pinned are left out
+/// (counted in `unconstrainable`).
 /// @param[in]     cells        cells of the lattice the positions belong to
 /// @param[in]     restVolumes  #C target volumes (> 0), world units^3
 /// @param[in]     pinned       #P flags, or empty

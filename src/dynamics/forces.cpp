@@ -187,6 +187,11 @@ std::vector<std::string> ForceTerm::validate() const {
             if (!finite(centre)) out.push_back("centre: expected finite numbers");
             if (!matrix.allFinite()) out.push_back("matrix: expected finite numbers");
             break;
+        case ForceKind::Torsion:
+            if (!finite(centre)) out.push_back("centre: expected finite numbers");
+            unit("axis", axis);
+            positive("radius", radius);
+            break;
     }
     return out;
 }
@@ -297,6 +302,24 @@ void ForceField::accumulate(const Vec3& x, Real frame, ForceOrder order, ForceSa
                 out.value += s * (term.matrix * d);
                 if (order != ForceOrder::Value) out.gradient += s * term.matrix;
                 break;
+            case ForceKind::Torsion: {
+                // F = k z (a × d), k = s/R², z = a·d; ∇F = k((a × d) aᵀ + z [a]×);
+                // ∂²F_i/∂d_j∂d_l = k([a]×_ij a_l + [a]×_il a_j)
+                const Real k = s / (term.radius * term.radius);
+                const Vec3& a = term.axis;
+                const Real z = a.dot(d);
+                Mat3 K;
+                K << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
+                out.value += k * z * (K * d);
+                if (order == ForceOrder::Value) break;
+                out.gradient += k * ((K * d) * a.transpose() + z * K);
+                if (order != ForceOrder::Hessian) break;
+                for (int i = 0; i < 3; ++i) {
+                    const Vec3 row = K.row(i).transpose();
+                    out.hessian[static_cast<std::size_t>(i)] += k * (row * a.transpose() + a * row.transpose());
+                }
+                break;
+            }
         }
     }
 }

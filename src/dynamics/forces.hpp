@@ -55,7 +55,7 @@ struct ForceSample {
 enum class ForceOrder : int { Value = 0, Gradient = 1, Hessian = 2 };
 
 /// The kinds of field (formulas at each field of ForceTerm; docs/math.md "Force fields").
-enum class ForceKind { Gravity, Attractor, Vortex, Burst, Wind, Linear };
+enum class ForceKind { Gravity, Attractor, Vortex, Burst, Wind, Linear, Torsion };
 
 /// One term of a force field. Fields that a kind does not use are ignored. With s the strength
 /// at the frame, d = x − centre:
@@ -73,6 +73,9 @@ enum class ForceKind { Gravity, Attractor, Vortex, Burst, Wind, Linear };
 ///               of `modes` seeded random Fourier modes of wavelength ≈ scale (0.67..2 × scale):
 ///               T(x) = Σ_m c_m cos(k_m·x + φ_m), c_m ⊥ k_m, so div T = 0 exactly; rms |T| = 1.
 ///               An acceleration field, not drag: it does not depend on velocity (seed eq 64).
+///  - Torsion:   F = s·(z/R)·(a × d)/R, z = a·d: every layer across the axis a turns, at a rate
+///               growing linearly with its height z above the centre (|F| = s at z = ρ = R). Its
+///               Hessian is constant and non-zero, so it twists a body (a column pinned at z = 0).
 ///  - Linear:    F = s·(matrix·d): constant gradient s·matrix, zero Hessian (tests, and the
 ///               closed-form affine motion of the dynamics tests).
 struct ForceTerm {

@@ -2,4 +2,5 @@
 list(APPEND DGV_DYNAMICS_SOURCES
   dynamics/forces.cpp
   dynamics/body.cpp
+  dynamics/stepper.cpp
 )

@@ -266,9 +266,12 @@ void writePng(const fs::path& path, const Image& image, const PngWriteOptions& o
         if (!f) throw RuntimeError(std::strerror(errno));
         job.file = f;
         PngError err{};
+        errno = 0;
         if (encodeRaw(&job, &err) != 0) {
+            // libpng says only "Write Error" when fwrite fails: add why (ENOSPC, EFBIG, EIO).
+            const int e = std::ferror(f) ? errno : 0;
             std::fclose(f);
-            throw RuntimeError(std::string("libpng: ") + err.message);
+            throw RuntimeError(std::string("libpng: ") + err.message + (e ? std::string(": ") + std::strerror(e) : ""));
         }
         if (std::fflush(f) != 0) {
             const int e = errno;

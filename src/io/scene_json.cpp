@@ -342,6 +342,29 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         readVoxel(o, d.voxel);
         d.color = o.color("color", d.color);
         d.deformable = o.boolean("deformable", true);
+        o.object("material", [&](ObjectReader& m) {
+            d.material.density = m.number("density", d.material.density, 0, HUGE_VAL, true);
+            d.material.damping = m.number("damping", d.material.damping, 0, 1e6);
+            d.material.stiffness = m.number("stiffness", d.material.stiffness, 0, 1e8);
+            d.material.maxDeltaGamma = m.number("max_delta_gamma", d.material.maxDeltaGamma, 0, 1, true);
+        });
+        d.velocity = o.vec3("velocity", d.velocity);
+        d.spinDegrees = o.vec3("spin", d.spinDegrees);
+        o.object("pin", [&](ObjectReader& p) {
+            const bool box = p.has("min") || p.has("max"), ball = p.has("centre") || p.has("radius");
+            if (box == ball) p.fail("", "give a box ('min' and 'max') or a ball ('centre' and 'radius')");
+            if (box) {
+                d.pin.kind = PinDesc::Kind::Box;
+                d.pin.min = p.vec3("min", Vec3::Zero());
+                d.pin.max = p.vec3("max", Vec3::Zero());
+                for (int k = 0; k < 3; ++k)
+                    if (!(d.pin.max[k] >= d.pin.min[k])) p.fail("max", "must be >= min in every coordinate");
+            } else {
+                d.pin.kind = PinDesc::Kind::Ball;
+                d.pin.centre = p.vec3("centre", Vec3::Zero());
+                d.pin.radius = p.number("radius", 0, 0, HUGE_VAL, true);
+            }
+        });
         s.objects.push_back(std::move(d));
     });
     r.array("curves", [&](ObjectReader& c, int i) {
@@ -400,7 +423,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
 
     r.array("forces", [&](ObjectReader& f, int) {
         ForceDesc d;
-        std::string type = f.choice("type", "", {"gravity", "attractor", "vortex", "burst", "wind"});
+        std::string type = f.choice("type", "", {"gravity", "attractor", "vortex", "burst", "wind", "torsion"});
         if (type == "gravity") {
             d.type = ForceType::Gravity;
             d.direction = f.direction("direction", d.direction);
@@ -418,6 +441,12 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.axis = f.direction("axis", d.axis);
             d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
             d.falloff = f.number("falloff", 1, 0, 4);
+            d.strength = readKeyframed(f, "strength", 1);
+        } else if (type == "torsion") {
+            d.type = ForceType::Torsion;
+            d.position = f.vec3("position", d.position);
+            d.axis = f.direction("axis", d.axis);
+            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
             d.strength = readKeyframed(f, "strength", 1);
         } else if (type == "burst") {
             d.type = ForceType::Burst;
@@ -515,6 +544,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     r.object("output", [&](ObjectReader& o) {
         outDir = o.string("dir", outDir);
         s.output.vdb = o.boolean("vdb", false);
+        s.output.vdbVoxelSize = o.number("vdb_voxel_size", 0, 0, HUGE_VAL);
+        s.output.vdbHalf = o.boolean("vdb_half", false);
+        s.output.vdbSurface = o.boolean("vdb_surface", false);
     });
     if (outDir.rfind("//", 0) == 0) s.output.dir = (sceneDir / outDir.substr(2)).lexically_normal().string();
     else s.output.dir = fs::absolute(outDir).lexically_normal().string();

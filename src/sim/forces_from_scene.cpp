@@ -10,6 +10,7 @@ ForceTerm forceTermFromScene(const ForceDesc& d) {
         case ForceType::Gravity: t.kind = ForceKind::Gravity; break;
         case ForceType::Attractor: t.kind = ForceKind::Attractor; break;
         case ForceType::Vortex: t.kind = ForceKind::Vortex; break;
+        case ForceType::Torsion: t.kind = ForceKind::Torsion; break;
         case ForceType::Burst: t.kind = ForceKind::Burst; break;
         case ForceType::Wind: t.kind = ForceKind::Wind; break;
     }

@@ -48,3 +48,16 @@ Real srgbToLinear(Real c) {
 }
 
 }  // namespace dgv
+
+namespace dgv {
+
+bool PinDesc::contains(const Vec3& x) const {
+    switch (kind) {
+        case Kind::None: return false;
+        case Kind::Box: return (x.array() >= min.array()).all() && (x.array() <= max.array()).all();
+        case Kind::Ball: return (x - centre).norm() <= radius;
+    }
+    return false;
+}
+
+}  // namespace dgv

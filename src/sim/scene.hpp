@@ -33,6 +33,23 @@ struct PrimitiveDesc {
     Real height = 1.0;                  ///< capsule: distance between hemisphere centres
 };
 
+/// How a deformable object's material responds (dynamics/stepper.hpp DynamicsSettings).
+struct MaterialDesc {
+    Real density = 1000;        ///< kg/m^3
+    Real damping = 1;           ///< 1/s: twist and flex stretch rates decay as exp(-damping t)
+    Real stiffness = 0;         ///< 1/s^2: shape memory (0: goo; > 0: jelly that wobbles back)
+    Real maxDeltaGamma = 0.05;  ///< limiter on the connection change per step
+};
+
+/// Material points held fixed: those whose rest position lies in a box or a ball (world units).
+struct PinDesc {
+    enum class Kind { None, Box, Ball } kind = Kind::None;
+    Vec3 min = Vec3::Zero(), max = Vec3::Zero();  ///< box
+    Vec3 centre = Vec3::Zero();                   ///< ball
+    Real radius = 0;                              ///< ball
+    bool contains(const Vec3& x) const;
+};
+
 struct ObjectDesc {
     std::string name;
     bool isPrimitive = false;
@@ -43,6 +60,10 @@ struct ObjectDesc {
     VoxeliseSettings voxel;
     Vec3 color = Vec3(0.8, 0.8, 0.8);  ///< linear RGB (the file gives sRGB)
     bool deformable = true;
+    MaterialDesc material;
+    Vec3 velocity = Vec3::Zero();      ///< initial velocity of the centre, m/s
+    Vec3 spinDegrees = Vec3::Zero();   ///< initial angular velocity, degrees/s (rigid spin)
+    PinDesc pin;
 };
 
 /// A scalar keyframed over frames: linear interpolation, held constant outside the keys.
@@ -51,7 +72,7 @@ struct Keyframed {
     Real at(Real frame) const;
 };
 
-enum class ForceType { Gravity, Attractor, Vortex, Burst, Wind };
+enum class ForceType { Gravity, Attractor, Vortex, Burst, Wind, Torsion };
 
 struct ForceDesc {
     ForceType type = ForceType::Gravity;
@@ -144,7 +165,10 @@ struct RenderDesc {
 
 struct OutputDesc {
     std::string dir;     ///< absolute; default <cwd>/out/<scene name>; frames <dir>/<name>.####.png
-    bool vdb = false;    ///< <dir>/vdb/<name>.####.vdb (not built yet: the VDB-cache issue)
+    bool vdb = false;    ///< <dir>/vdb/<name>.####.vdb (docs/vdb.md)
+    Real vdbVoxelSize = 0;   ///< world grids' voxel size; 0: the objects' (smallest) voxel size
+    bool vdbHalf = false;    ///< density, vel, contact as 16-bit floats
+    bool vdbSurface = false; ///< also the `surface` level set of each deformed mesh
 };
 
 struct SceneDesc {

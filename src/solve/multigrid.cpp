@@ -245,7 +245,10 @@ AggregationMultigrid::AggregationMultigrid(const SparseRows& A, const std::vecto
             std::vector<int> agg(at(n));
             std::vector<Vec3i> coarseXyz;
             for (Index i = 0; i < n; ++i) {
-                const Vec3i c = xyz[at(i)] / settings.aggregateSize;
+                const Vec3i& v = xyz[at(i)];
+                Vec3i c = v / settings.aggregateSize;
+                if (settings.parityAggregates)
+                    for (int a = 0; a < 3; ++a) c[a] = 2 * ((v[a] >> 1) / settings.aggregateSize) + (v[a] & 1);
                 const auto [it, inserted] = ids.try_emplace({c.x(), c.y(), c.z()}, int(coarseXyz.size()));
                 if (inserted) coarseXyz.push_back(c);
                 agg[at(i)] = it->second;

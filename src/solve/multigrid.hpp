@@ -45,6 +45,12 @@ struct MultigridSettings {
     int maxLevels = 12;
     int smootherDegree = 2;    ///< Chebyshev degree, before and after the coarse correction
     Real eigenRatio = 10;      ///< the smoother damps D^-1 A eigenvalues in [rho/ratio, 1.1 rho]
+    /// Aggregate each parity class (i mod 2, j mod 2, k mod 2) of the sites separately: an
+    /// aggregate is the sites of one class in a block of (2 aggregateSize)^3, so the coarse space
+    /// carries every sign pattern (-1)^(i+j), (-1)^(i+j+k), ... times a smooth envelope. For
+    /// matrices whose near-null space includes such checkerboards (the cell normal matrix of
+    /// deform/volume.hpp); coarse site = 2 block + parity, so the classes persist on every level.
+    bool parityAggregates = false;
 };
 
 class AggregationMultigrid {

@@ -135,14 +135,14 @@ void PoissonSolver::pathPositions(const Lattice& lat, const EdgeTransports& e,
     }
 }
 
-SolveReport PoissonSolver::solve(const Lattice& lat, const EdgeTransports& e,
-                                 const std::vector<Mat3>& frames, std::vector<Vec3>& positions,
-                                 Real tolerance, int maxIterations) const {
+namespace {
+
+/// The least-squares solve of PoissonSolver::solve / solveSteps with the edge step
+/// x(q) - x(p) = step(p, slot) given as a function.
+template <typename Step>
+SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&& step,
+                         std::vector<Vec3>& positions, Real tolerance, int maxIterations) {
     const auto start = std::chrono::steady_clock::now();
-    const Impl& m = *mImpl;
-    DGV_CHECK_EQ(lat.size(), m.points);
-    DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
-    DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
     SolveReport report;
     const Index n = static_cast<Index>(m.freePoints.size());
     if (!m.ok || n == 0) {
@@ -166,7 +166,7 @@ SolveReport PoissonSolver::solve(const Lattice& lat, const EdgeTransports& e,
         for (int slot = 0; slot < 6; ++slot) {
             const Index q = lat.neighbours[at(p)][at(slot)];
             if (q == kNoPoint) continue;
-            const Vec3 d = positionStep(lat, e, frames, p, slot);
+            const Vec3 d = step(p, slot);
             s -= d;
             s2 += d.squaredNorm();
             ++count;
@@ -188,6 +188,34 @@ SolveReport PoissonSolver::solve(const Lattice& lat, const EdgeTransports& e,
     });
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return report;
+}
+
+}  // namespace
+
+SolveReport PoissonSolver::solve(const Lattice& lat, const EdgeTransports& e,
+                                 const std::vector<Mat3>& frames, std::vector<Vec3>& positions,
+                                 Real tolerance, int maxIterations) const {
+    DGV_CHECK_EQ(lat.size(), mImpl->points);
+    DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
+    DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
+    return solvePoisson(
+        *mImpl, lat, [&](Index p, int slot) { return positionStep(lat, e, frames, p, slot); }, positions,
+        tolerance, maxIterations);
+}
+
+SolveReport PoissonSolver::solveSteps(const Lattice& lat, const std::array<std::vector<Vec3>, 3>& forward,
+                                      std::vector<Vec3>& positions, Real tolerance, int maxIterations) const {
+    DGV_CHECK_EQ(lat.size(), mImpl->points);
+    DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
+    for (const auto& f : forward) DGV_CHECK_EQ(static_cast<Index>(f.size()), lat.size());
+    return solvePoisson(
+        *mImpl, lat,
+        [&](Index p, int slot) -> Vec3 {
+            const std::size_t axis = static_cast<std::size_t>(slot / 2);
+            if (slot & 1) return forward[axis][at(p)];
+            return -forward[axis][at(lat.neighbours[at(p)][at(slot)])];
+        },
+        positions, tolerance, maxIterations);
 }
 
 }  // namespace dgv

@@ -18,6 +18,7 @@
 #include "solve/holonomy.hpp"
 #include "solve/solve_report.hpp"
 
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -48,6 +49,14 @@ public:
                       std::vector<Vec3>& positions, Real tolerance = Real(1e-8),
                       int maxIterations = 200) const;
 
+    /// The same least-squares solve with the edge steps given directly: forward[a][p] is the
+    /// step x(p + e_a) - x(p) along axis a from point p (entries of points without a +a
+    /// neighbour are ignored). The dynamics solves for a displacement this way, from the
+    /// difference of the steps of two connections (dynamics/stepper.hpp).
+    SolveReport solveSteps(const Lattice& lat, const std::array<std::vector<Vec3>, 3>& forward,
+                           std::vector<Vec3>& positions, Real tolerance = Real(1e-8),
+                           int maxIterations = 200) const;
+
     /// The Path positions (reconstruct.hpp) from the fixed points, which must already hold
     /// their values in `positions` (#P, in/out): x(q) = x(parent) + D_parent,q along the
     /// breadth-first tree from the fixed points (point order, slot order), the tree cached at
@@ -56,8 +65,9 @@ public:
     void pathPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
                        std::vector<Vec3>& positions) const;
 
+    struct Impl;  ///< (public so that the .cpp's helpers can take it)
+
 private:
-    struct Impl;
     std::unique_ptr<Impl> mImpl;
 };
 

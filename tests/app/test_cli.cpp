@@ -67,10 +67,32 @@ TEST_CASE("cli: bad usage exits 2 with one line", "[app][cli]") {
     }
 }
 
-TEST_CASE("cli: commands not built yet say so and exit non-zero", "[app][cli]") {
-    auto r = test::runDgv("simulate scenes/default.json");
-    CHECK(r.exitCode == 1);
-    CHECK_THAT(r.output, Catch::Contains("not built yet"));
+TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cache", "[app][cli][dynamics]") {
+    test::TempDir dir("cli_simulate");
+    const std::string scene = std::string(DGV_SOURCE_DIR) + "/scenes/twisted_column.json";
+    auto r = test::runDgv("-q simulate " + q(std::filesystem::path(scene)) + " --frames 4 --vdb --out " + q(dir.path()));
+    INFO(r.output);
+    REQUIRE(r.exitCode == 0);
+    std::ifstream f(dir.path() / "stats.csv");
+    std::string line;
+    REQUIRE(std::getline(f, line));
+    CHECK(line == "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
+                  "contacts,limited_points,step_ms");
+    int rows = 0;
+    while (std::getline(f, line)) {
+        ++rows;
+        std::vector<double> v;
+        std::stringstream ss(line);
+        for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+        REQUIRE(v.size() == 10);
+        CHECK(v[0] == rows);           // frames 1..4
+        CHECK(v[4] <= 1e-4);           // max_cell_volume_error
+        CHECK(std::abs(v[5]) <= 1e-6); // total_volume_drift
+        CHECK(v[6] == 0);              // no inverted cell
+    }
+    CHECK(rows == 4);
+    for (int frame = 1; frame <= 4; ++frame)
+        CHECK(std::filesystem::exists(dir.path() / "vdb" / ("twisted_column.000" + std::to_string(frame) + ".vdb")));
 }
 
 TEST_CASE("cli: gln prints the certified linking number, or why not", "[app][cli][gln]") {

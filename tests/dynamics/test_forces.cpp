@@ -52,6 +52,15 @@ ForceTerm vortex(Real n = 1) {
     t.strength = Keyframes::constant(2);
     return t;
 }
+ForceTerm torsion() {
+    ForceTerm t;
+    t.kind = ForceKind::Torsion;
+    t.centre = Vec3(0.2, -0.1, 0.3);
+    t.axis = Vec3(0.3, 1, -0.2);
+    t.radius = 0.6;
+    t.strength = Keyframes::constant(1.5);
+    return t;
+}
 ForceTerm burst() {
     ForceTerm t;
     t.kind = ForceKind::Burst;
@@ -268,7 +277,8 @@ TEST_CASE("forces: gradients and Hessians match central differences for every fi
         {"burst", {burst()}, burst().centre, 0.8},
         {"wind", {wind()}, Vec3(0.3, 0.1, -0.2), 0.6},  // the shortest wavelength, scale / 1.5
         {"linear", {linear()}, Vec3(0, 0, 0), 1},
-        {"sum of all", {gravity(), attractor(), vortex(), burst(), wind(), linear()}, Vec3(0, 0, 0), 0.2},
+        {"torsion", {torsion()}, torsion().centre, 0.6},
+        {"sum of all", {gravity(), attractor(), vortex(), burst(), wind(), linear(), torsion()}, Vec3(0, 0, 0), 0.2},
     };
     for (const Case& c : cases) {
         const ForceField f = fieldOf(c.terms);

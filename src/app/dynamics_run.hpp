@@ -1,0 +1,51 @@
+#pragma once
+// A scene's dynamics as the render and simulate commands drive it: the Simulation of the
+// scene's built objects, advanced frame by frame, with out/<scene>/stats.csv rewritten (atomically)
+// after every frame and, when the scene asks for it, the frame's VDB cache.
+
+#include "app/scene_build.hpp"
+#include "sim/simulation.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace dgv::app {
+
+/// Parses "A-B" or "N" (--frames) and checks it lies within the scene's frame range.
+void parseFrameRange(const std::string& text, const SceneDesc& scene, int& first, int& last);
+
+class DynamicsRun {
+public:
+    /// @param writeVdb  write out/<scene>/vdb/<scene>.####.vdb per frame (builds the bodies even
+    ///                  when nothing moves)
+    DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>& objects, bool writeVdb = false);
+    ~DynamicsRun();
+
+    /// Simulates up to `frame` (frames.start: the initial state), writing each new frame's
+    /// stats row and VDB file. Frames must not go backwards.
+    void advanceTo(int frame);
+    /// The moving body of object i, or nullptr (render it at rest).
+    const DeformableBody* body(std::size_t i) const;
+    bool active() const { return mSim->active(); }
+    /// VDB frames before `frame` are simulated but not written (--frames A-B).
+    void setFirstWrittenFrame(int frame) { mFirstWritten = frame; }
+    /// The rows written so far (header first).
+    const std::vector<std::string>& statsRows() const { return mRows; }
+    const FrameStats& lastStats() const { return mLast; }
+
+private:
+    void record(const FrameStats& s);
+    void writeVdb(int frame);
+
+    const SceneDesc& mScene;
+    const std::vector<BuiltObject>& mObjects;
+    bool mVdb = false;
+    std::unique_ptr<Simulation> mSim;
+    int mDone = -1;  ///< last frame recorded
+    int mFirstWritten = 0;  ///< VDB frames before this one are simulated, not written
+    std::vector<std::string> mRows;
+    FrameStats mLast;
+};
+
+}  // namespace dgv::app

@@ -1,0 +1,52 @@
+#include "app/resume.hpp"
+
+#include "base/errors.hpp"
+#include "io/png.hpp"
+
+#include <filesystem>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+namespace dgv::app {
+
+namespace fs = std::filesystem;
+
+void checkOutputFolder(const std::string& dir, const std::string& input, const std::string& where) {
+    if (dir.empty()) return;
+    fs::path p = fs::path(dir).lexically_normal();
+    for (;;) {
+        std::error_code ec;
+        const fs::file_status st = fs::status(p, ec);  // ENOTDIR below a file: "not found", go up
+        if (fs::exists(st)) {
+            if (fs::is_directory(st)) return;
+            throw InputError(input, where,
+                             p == fs::path(dir).lexically_normal()
+                                 ? dir + ": not a folder (a file of that name exists)"
+                                 : dir + ": not a folder (" + p.string() + " is a file)");
+        }
+        if (!p.has_relative_path() || p.parent_path() == p) return;
+        p = p.parent_path();
+    }
+}
+
+bool frameIsComplete(const std::string& path, int frame, int width, int height, Image* image) {
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) return false;
+    std::vector<std::pair<std::string, std::string>> text;
+    Image decoded;
+    try {
+        decoded = readPng(path, &text);  // the whole file: image data, CRCs, IEND
+    } catch (const InputError&) {
+        return false;
+    }
+    if (decoded.width != width || decoded.height != height) return false;
+    bool frameMatches = false;
+    for (const auto& [key, value] : text)
+        if (key == "dgv:frame") frameMatches = value == std::to_string(frame);
+    if (!frameMatches) return false;
+    if (image) *image = std::move(decoded);
+    return true;
+}
+
+}  // namespace dgv::app

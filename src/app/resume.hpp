@@ -1,0 +1,21 @@
+#pragma once
+// dgv render's output checks: the output folder can be a folder (checked before anything is
+// built), and --resume's test of whether a frame already on disk is complete.
+
+#include "base/image.hpp"
+
+#include <string>
+
+namespace dgv::app {
+
+/// InputError (`input`: `where`: ...) when `dir`, or the nearest part of it that exists, is not
+/// a folder (e.g. --out names a file): bad input, found before any work is done.
+void checkOutputFolder(const std::string& dir, const std::string& input, const std::string& where);
+
+/// --resume: true when `path` holds a complete frame `frame` of `width` x `height`: a PNG that
+/// decodes in full (a truncated or corrupt file does not) and whose dgv:frame text is `frame`.
+/// A file that exists but fails any of this is not trusted: the frame is rendered again.
+/// `image`, when given, receives the decoded frame (for the contact sheet).
+bool frameIsComplete(const std::string& path, int frame, int width, int height, Image* image = nullptr);
+
+}  // namespace dgv::app

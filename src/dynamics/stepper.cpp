@@ -1,0 +1,540 @@
+// The dynamics step (stepper.hpp; docs/math.md, "The dynamics step").
+
+#include "dynamics/stepper.hpp"
+
+#include "base/check.hpp"
+#include "base/errors.hpp"
+#include "base/parallel.hpp"
+#include "deform/connection_delta.hpp"
+#include "deform/sl3.hpp"
+#include "dynamics/body.hpp"
+#include "solve/holonomy.hpp"
+#include "solve/reconstruct.hpp"
+#include "solve/sparse_solve.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cmath>
+
+namespace dgv {
+
+namespace {
+
+inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+/// Rotation by angle θ about unit axis k (Rodrigues), exactly orthogonal to round-off.
+Mat3 rotation(const Vec3& axis, Real angle) {
+    Mat3 K;
+    K << 0, -axis.z(), axis.y(), axis.z(), 0, -axis.x(), -axis.y(), axis.x(), 0;
+    return Mat3::Identity() + std::sin(angle) * K + (1 - std::cos(angle)) * K * K;
+}
+
+/// The rotation part of a near-identity step matrix S = 1 + G: the rotation whose skew part
+/// equals skew(G) (exact when S is a rotation of angle < 90°), returned as axis and angle.
+void stepRotation(const Mat3& G, Vec3& axis, Real& angle) {
+    const Vec3 w(G(2, 1) - G(1, 2), G(0, 2) - G(2, 0), G(1, 0) - G(0, 1));
+    const Real s = Real(0.5) * w.norm();  // sin θ
+    if (!(s > 1e-300)) {
+        axis = Vec3::UnitX();
+        angle = 0;
+        return;
+    }
+    axis = w / (2 * s);
+    angle = std::asin(std::min(s, Real(1)));
+}
+
+/// Polar rotation of an invertible matrix (proper when det > 0).
+Mat3 polarRotation(const Mat3& A) {
+    const Eigen::JacobiSVD<Mat3> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Mat3 U = svd.matrixU();
+    const Mat3 V = svd.matrixV();
+    if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
+    return U * V.transpose();
+}
+
+}  // namespace
+
+bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::array<Mat3, 3>& hessian,
+                 const PointConnection& gamma, Real dt, const DynamicsSettings& settings, PointConnection& dGamma) {
+    const Real dt2 = dt * dt;
+    const Real decay = settings.damping > 0 ? std::exp(-settings.damping * dt) : Real(1);
+    // exp(-δt W) = F⁻¹ exp(-2 δt L) F with the frames' step S = exp(δt L) = F F_prev⁻¹.
+    Mat3 E;
+    if (settings.twistStretch == TwistStretch::Full) {
+        const Mat3 si = step.inverse();
+        E = Fi * si * si * F;
+    } else {
+        const Mat3 G = step - Mat3::Identity();
+        Vec3 axis;
+        Real angle = 0;
+        stepRotation(G, axis, angle);
+        Mat3 world = rotation(axis, -2 * angle);
+        if (settings.twistStretch == TwistStretch::DampOnly) {
+            // stretch eigenvalues d > 0 damp by (1 + d)^-2 ≈ exp(-2 δt D); d < 0 would amplify: dropped
+            Eigen::SelfAdjointEigenSolver<Mat3> es;
+            es.computeDirect(Real(0.5) * (G + G.transpose()));
+            const Vec3 d = es.eigenvalues();
+            if (d.maxCoeff() > 0) {
+                Vec3 f;
+                for (int k = 0; k < 3; ++k) f[k] = d[k] > 0 ? Real(1) / ((1 + d[k]) * (1 + d[k])) : Real(1);
+                world = world * es.eigenvectors() * f.asDiagonal() * es.eigenvectors().transpose();
+            }
+        }
+        E = Fi * world * F;
+    }
+    PointConnection next;
+    for (Mat3& m : next) m.setZero();
+    for (int a = 0; a < 3; ++a)
+        for (int b = a; b < 3; ++b) {
+            const Vec3 xa = F.col(a), xb = F.col(b);
+            // (x_a x_b) : ∇∇F, component i = x_aᵀ (∇∇F_i) x_b
+            const Vec3 hab(xa.dot(hessian[0] * xb), xa.dot(hessian[1] * xb), xa.dot(hessian[2] * xb));
+            Vec3 old;
+            for (std::size_t d = 0; d < 3; ++d) old[static_cast<Index>(d)] = dGamma[d](a, b);
+            const Vec3 rotated = E * old;
+            for (std::size_t c = 0; c < 3; ++c) {
+                Real v = rotated[static_cast<Index>(c)] + dt2 * hab.dot(Fi.row(static_cast<Index>(c)).transpose());
+                if (settings.shapeStiffness > 0) v -= dt2 * settings.shapeStiffness * gamma[c](a, b);
+                v *= decay;
+                next[c](a, b) = v;
+                next[c](b, a) = v;
+            }
+        }
+    if (settings.traceFree) projectTraceFree(next);
+    const Real cap2 = settings.maxDeltaGamma * settings.maxDeltaGamma;
+    Real norm2 = 0;
+    for (const Mat3& m : next) norm2 += m.squaredNorm();
+    bool limited = false;
+    if (norm2 > cap2) {
+        const Real s = std::sqrt(cap2 / norm2);
+        for (Mat3& m : next) m *= s;
+        limited = true;
+    }
+    dGamma = next;
+    return limited;
+}
+
+std::vector<std::string> DynamicsSettings::validate() const {
+    std::vector<std::string> out;
+    auto positive = [&](Real v, const char* name) {
+        if (!(v > 0) || !std::isfinite(v)) out.push_back(std::string(name) + ": expected a positive number, got " + std::to_string(v));
+    };
+    auto nonNegative = [&](Real v, const char* name) {
+        if (!(v >= 0) || !std::isfinite(v)) out.push_back(std::string(name) + ": expected a number >= 0, got " + std::to_string(v));
+    };
+    positive(density, "density");
+    nonNegative(damping, "damping");
+    nonNegative(shapeStiffness, "stiffness");
+    positive(maxDeltaGamma, "max_delta_gamma");
+    positive(volumeTolerance, "volume_tolerance");
+    positive(reconstructTolerance, "reconstruct_tolerance");
+    return out;
+}
+
+Real Collider::evaluate(const Vec3& x, Vec3& gradient) const {
+    switch (kind) {
+        case Kind::Plane:
+            gradient = normal;
+            return normal.dot(x - point);
+        case Kind::Sphere: {
+            const Vec3 d = x - point;
+            const Real r = d.norm();
+            gradient = r > 0 ? Vec3(d / r) : Vec3(Vec3::UnitY());
+            return r - radius;
+        }
+        case Kind::Distance:
+            return distance(x, &gradient);
+    }
+    gradient = Vec3::UnitY();
+    return 1;
+}
+
+DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positions,
+                               const DynamicsSettings& settings, std::vector<unsigned char> pinned)
+    : mLat(lattice), mSet(settings), mPinned(std::move(pinned)), mX(std::move(positions)) {
+    const Index n = mLat.size();
+    DGV_CHECK(n > 0);
+    DGV_CHECK_EQ(static_cast<Index>(mX.size()), n);
+    if (mPinned.empty()) mPinned.assign(at(n), 0);
+    DGV_CHECK_EQ(static_cast<Index>(mPinned.size()), n);
+    const std::vector<std::string> problems = mSet.validate();
+    if (!problems.empty()) throw InputError("", "material", problems.front());
+    mAnyPinned = std::any_of(mPinned.begin(), mPinned.end(), [](unsigned char c) { return c != 0; });
+    mPinnedPositions = mX;
+
+    mCells = buildCells(mLat);
+    mRestVolumes = cellVolumes(mCells, mX);
+    mRestTotal = 0;
+    for (Real v : mRestVolumes) mRestTotal += v;
+    mMass = pointMasses(mLat, mSet.density, MassRule::CellShare);
+    mTotalMass = 0;
+    for (Real m : mMass) mTotalMass += m;
+    if (!(mTotalMass > 0)) {  // no complete cell (a one-voxel-thin object): a voxel each
+        mMass = pointMasses(mLat, mSet.density, MassRule::Voxel);
+        mTotalMass = mSet.density * std::pow(mLat.spacing, 3) * static_cast<Real>(n);
+    }
+    mC = centreOfMass(mMass, mX);
+    mRestRel.resize(at(n));
+    Mat3 S0 = Mat3::Zero();
+    for (Index p = 0; p < n; ++p) {
+        mRestRel[at(p)] = mX[at(p)] - mC;
+        S0 += mMass[at(p)] * mRestRel[at(p)] * mRestRel[at(p)].transpose();
+    }
+    S0 /= mTotalMass;
+    // A flat or thin body has a (near) singular second moment: give each point its voxel's
+    // own moment h²/12 along the missing axes only then, so the fit stays exact otherwise.
+    const Real h2 = mLat.spacing * mLat.spacing;
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(S0);
+    if (eig.eigenvalues().minCoeff() < 1e-6 * h2) S0 += (h2 / 12) * Mat3::Identity();
+    mS0inv = S0.inverse();
+
+    computeGeometricState(mLat, mX, mState);
+    for (auto& g : mDGamma) g.assign(at(n), Mat3::Zero());
+    mContact.assign(at(n), 0);
+    mV.assign(at(n), Vec3::Zero());
+
+    // The reconstruction's reference: pinned points, plus the point nearest the centre of each
+    // component that has no pinned point.
+    std::vector<Mat3> frames(at(n));
+    for (Index p = 0; p < n; ++p)
+        frames[at(p)] << mState.tangent[0][at(p)], mState.tangent[1][at(p)], mState.tangent[2][at(p)];
+    std::vector<unsigned char> fixed = mPinned;
+    std::vector<char> componentPinned(static_cast<std::size_t>(mLat.components), 0);
+    for (Index p = 0; p < n; ++p)
+        if (mPinned[at(p)]) componentPinned[static_cast<std::size_t>(mLat.component[at(p)])] = 1;
+    for (const Pin& pin : centrePins(mLat, mX, frames))
+        if (!componentPinned[static_cast<std::size_t>(mLat.component[at(pin.point)])]) fixed[at(pin.point)] = 1;
+    for (Index p = 0; p < n; ++p)
+        if (fixed[at(p)]) mSolverFixed.push_back(p);
+    mSolver = std::make_unique<PoissonSolver>(mLat, fixed);
+    mDisplacement.assign(at(n), Vec3::Zero());
+}
+
+DeformableBody::~DeformableBody() = default;
+
+void DeformableBody::setAffineVelocity(const Vec3& velocity, const Mat3& gradient) {
+    mVc = velocity;
+    mAdot = gradient * mA;
+    mHalfStep = false;
+    mHavePrev = false;
+    for (Index p = 0; p < mLat.size(); ++p)
+        mV[at(p)] = mPinned[at(p)] ? Vec3(Vec3::Zero()) : Vec3(velocity + gradient * (mX[at(p)] - mC));
+}
+
+void DeformableBody::setRigidVelocity(const Vec3& velocity, const Vec3& angularVelocity) {
+    Mat3 W;
+    W << 0, -angularVelocity.z(), angularVelocity.y(), angularVelocity.z(), 0, -angularVelocity.x(),
+        -angularVelocity.y(), angularVelocity.x(), 0;
+    setAffineVelocity(velocity, W);
+}
+
+void DeformableBody::fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& affine) const {
+    centre = centreOfMass(mMass, x);
+    using Acc = Eigen::Matrix<Real, 9, 1>;
+    const Acc s = parallelReduce(
+        mLat.size(), Acc(Acc::Zero()),
+        [&](Acc& acc, Index p) {
+            const Mat3 m = mMass[at(p)] * (x[at(p)] - centre) * mRestRel[at(p)].transpose();
+            acc += Eigen::Map<const Acc>(m.data());
+        },
+        [](const Acc& a, const Acc& b) { return Acc(a + b); });
+    affine = Eigen::Map<const Mat3>(s.data()) / mTotalMass * mS0inv;
+}
+
+Real DeformableBody::sumDeltaGamma2() const {
+    return parallelReduce(
+        mLat.size(), Real(0),
+        [&](Real& acc, Index p) {
+            for (const auto& g : mDGamma) acc += g[at(p)].squaredNorm();
+        },
+        [](Real a, Real b) { return a + b; });
+}
+
+void DeformableBody::volumeFigures(Real& maxCellError, Real& totalDrift, Index& inverted) const {
+    const std::vector<Real> v = cellVolumes(mCells, mX);
+    maxCellError = 0;
+    inverted = 0;
+    Real total = 0;
+    for (std::size_t c = 0; c < v.size(); ++c) {
+        maxCellError = std::max(maxCellError, std::abs(v[c] / mRestVolumes[c] - 1));
+        if (!(v[c] > 0)) ++inverted;
+        total += v[c];
+    }
+    totalDrift = mRestTotal > 0 ? total / mRestTotal - 1 : 0;
+}
+
+StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, const std::vector<Collider>& colliders) {
+    DGV_CHECK(dt > 0);
+    const auto tStart = Clock::now();
+    StepReport report;
+    const Index n = mLat.size();
+    const Real h = mLat.spacing;
+
+    // 1. Forces: value for body and flex, Hessian for the twist.
+    auto t = Clock::now();
+    ForceSamples fs;
+    field.sample(mX, frame, ForceOrder::Hessian, fs);
+    report.forcesSeconds = since(t);
+
+    // 2. Body and flex (Störmer-Verlet; flex projected onto SL(3)).
+    t = Clock::now();
+    const Mat3 L0 = mAdot * mA.inverse();  // the affine velocity gradient before the step
+    using Acc = Eigen::Matrix<Real, 12, 1>;
+    const Acc mom = parallelReduce(
+        n, Acc(Acc::Zero()),
+        [&](Acc& acc, Index p) {
+            const Real m = mMass[at(p)];
+            const Vec3& F = fs.value[at(p)];
+            acc.head<3>() += m * F;
+            if (mSet.flexDrive == FlexDrive::FirstMoment) {
+                const Mat3 M = m * F * mRestRel[at(p)].transpose();
+                acc.tail<9>() += Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(M.data());
+            } else {
+                const Mat3 M = m * fs.gradient[at(p)];
+                acc.tail<9>() += Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(M.data());
+            }
+        },
+        [](const Acc& a, const Acc& b) { return Acc(a + b); });
+    const Vec3 accel = mom.head<3>() / mTotalMass;
+    const Mat3 moment = Eigen::Map<const Mat3>(mom.tail<9>().data()) / mTotalMass;
+    Mat3 flexAccel = mSet.flexDrive == FlexDrive::FirstMoment ? Mat3(moment * mS0inv) : Mat3(moment * mA);
+    if (mSet.shapeStiffness > 0) flexAccel -= mSet.shapeStiffness * (mA - polarRotation(mA));
+    if (mSet.damping > 0) flexAccel -= mSet.damping * Real(0.5) * (L0 + L0.transpose()) * mA;
+    const Real kick = mHalfStep ? dt : Real(0.5) * dt;
+    const Vec3 vcBefore = mVc + kick * accel;
+    mVc = vcBefore;
+    mAdot += kick * flexAccel;
+    mHalfStep = true;
+    const Vec3 cNew = mC + dt * mVc;
+    Mat3 aNew = mA + dt * mAdot;
+    const Sl3Result sl3 = projectToSL3(aNew);
+    if (sl3.ok) {
+        aNew = sl3.matrix;
+    } else {
+        report.fault = "flex: the affine part inverted (det A <= 0); use more substeps";
+        aNew = mA;
+        mAdot.setZero();
+    }
+    report.bodyFlexSeconds = since(t);
+
+    // 3. Twist: eq 76 with W split into rotation and stretch (file comment).
+    t = Clock::now();
+    std::vector<unsigned char> limited(at(n), 0);
+    parallelFor(n, [&](Index p) {
+        const std::size_t i = at(p);
+        Mat3 F, Fi;
+        F << mState.tangent[0][i], mState.tangent[1][i], mState.tangent[2][i];
+        Fi << mState.dual[0][i].transpose(), mState.dual[1][i].transpose(), mState.dual[2][i].transpose();
+        Mat3 step;
+        if (mHavePrev) {
+            Mat3 Fp;
+            Fp << mTangentPrev[0][i], mTangentPrev[1][i], mTangentPrev[2][i];
+            step = F * Fp.inverse();
+        } else {
+            step = Mat3::Identity() + dt * L0;
+        }
+        PointConnection gamma, dg;
+        std::array<Mat3, 3> hess;
+        for (std::size_t c = 0; c < 3; ++c) {
+            gamma[c] = mState.christoffel[c][i];
+            dg[c] = mDGamma[c][i];
+            hess[c] = fs.hessian[c][i];
+        }
+        if (twistUpdate(F, Fi, step, hess, gamma, dt, mSet, dg)) limited[i] = 1;
+        for (int c = 0; c < 3; ++c) mDGamma[static_cast<std::size_t>(c)][i] = dg[static_cast<std::size_t>(c)];
+    });
+    report.limitedPoints = std::count(limited.begin(), limited.end(), 1);
+    report.sumDeltaGamma2 = sumDeltaGamma2();
+    report.twistSeconds = since(t);
+
+    // 4. The displacement that Γ + δΓ asks for relative to Γ (file comment).
+    t = Clock::now();
+    std::array<std::vector<Mat3>, 3> gammaBar;
+    for (std::size_t c = 0; c < 3; ++c) {
+        gammaBar[c].resize(at(n));
+        parallelFor(n, [&](Index p) { gammaBar[c][at(p)] = mState.christoffel[c][at(p)] + mDGamma[c][at(p)]; });
+    }
+    const EdgeTransports e0 = computeEdgeTransports(mLat, mState.christoffel);
+    const EdgeTransports e1 = computeEdgeTransports(mLat, gammaBar);
+    std::vector<Mat3> f0(at(n)), f1(at(n));
+    // Both frame fields start from the current frames at the solver's fixed points.
+    parallelFor(n, [&](Index p) {
+        f0[at(p)] << mState.tangent[0][at(p)], mState.tangent[1][at(p)], mState.tangent[2][at(p)];
+    });
+    std::vector<Pin> pins;
+    for (Index p : mSolverFixed) pins.push_back(Pin{p, mX[at(p)], f0[at(p)], true, true});
+    f1 = f0;
+    integrateFramesAlongTree(mLat, e0, pins, f0);
+    integrateFramesAlongTree(mLat, e1, pins, f1);
+    std::array<std::vector<Vec3>, 3> forward;
+    for (std::size_t a = 0; a < 3; ++a) {
+        forward[a].assign(at(n), Vec3::Zero());
+        const int slot = static_cast<int>(2 * a + 1);
+        parallelFor(n, [&](Index p) {
+            if (mLat.neighbours[at(p)][static_cast<std::size_t>(slot)] == kNoPoint) return;
+            forward[a][at(p)] = positionStep(mLat, e1, f1, p, slot) - positionStep(mLat, e0, f0, p, slot);
+        });
+    }
+    for (Index p : mSolverFixed) mDisplacement[at(p)].setZero();
+    const SolveReport rec = mSolver->solveSteps(mLat, forward, mDisplacement, mSet.reconstructTolerance, 200);
+    report.reconstructIterations = rec.iterations;
+    const Real maxStep = parallelReduce(
+        n, Real(0), [&](Real& acc, Index p) { acc = std::max(acc, mDisplacement[at(p)].norm()); },
+        [](Real a, Real b) { return std::max(a, b); });
+    if (!(maxStep <= 2 * h)) {  // also NaN
+        // The twist's displacement left the lattice's reach in one step (measured: it follows
+        // a frame that has become near-singular at the boundary after long shearing).
+        char what[200];
+        std::snprintf(what, sizeof what,
+                      "reconstruction: the twist moved a point %.3g voxels in one step (solve %s); the shape is "
+                      "sheared past what the lattice resolves: use more damping, more substeps or a briefer force",
+                      maxStep / h, rec.converged ? "converged" : "did not converge");
+        report.fault = what;
+        mDisplacement.assign(at(n), Vec3::Zero());
+        report.totalSeconds = since(tStart);
+        return report;
+    }
+    std::vector<Vec3> xNew(at(n));
+    parallelFor(n, [&](Index p) { xNew[at(p)] = mX[at(p)] + mDisplacement[at(p)]; });
+    // The gauge: a free body's affine part and centre are the flex and body state.
+    if (!mAnyPinned) {
+        Vec3 yc;
+        Mat3 B;
+        fitAffine(xNew, yc, B);
+        const Mat3 map = aNew * B.inverse();
+        parallelFor(n, [&](Index p) { xNew[at(p)] = cNew + map * (xNew[at(p)] - yc); });
+    } else {
+        parallelFor(n, [&](Index p) {
+            if (mPinned[at(p)]) xNew[at(p)] = mPinnedPositions[at(p)];
+        });
+    }
+    report.reconstructSeconds = since(t);
+
+    // 5. Colliders.
+    t = Clock::now();
+    std::fill(mContact.begin(), mContact.end(), 0);
+    if (!colliders.empty()) {
+        parallelFor(n, [&](Index p) {
+            if (mPinned[at(p)]) return;
+            Vec3& x = xNew[at(p)];
+            for (const Collider& col : colliders) {
+                Vec3 g;
+                const Real phi = col.evaluate(x, g);
+                if (!(phi < 0)) continue;
+                const Real gn = g.norm();
+                if (!(gn > 0)) continue;
+                const Vec3 nrm = g / gn;
+                x -= (phi / gn) * nrm;
+                const Vec3 s = x - mX[at(p)];
+                x -= col.friction * (s - s.dot(nrm) * nrm);
+                mContact[at(p)] = 1;
+            }
+        });
+    }
+    report.contacts = std::count(mContact.begin(), mContact.end(), 1);
+    report.collideSeconds = since(t);
+
+    // 6. Volume, cell by cell, with pinned and contact points held.
+    t = Clock::now();
+    if (mSet.projectVolume && mCells.size() > 0) {
+        std::vector<unsigned char> held(at(n));
+        for (Index p = 0; p < n; ++p) held[at(p)] = (mPinned[at(p)] || mContact[at(p)]) ? 1 : 0;
+        VolumeProjectionSettings vs;
+        vs.tolerance = mSet.volumeTolerance;
+        vs.cache = &mVolumeCache;
+        const VolumeProjectionReport vr = projectVolumes(mCells, mRestVolumes, held, xNew, vs);
+        report.volumeIterations = vr.iterations;
+        report.volumeConverged = vr.converged;
+    }
+    report.volumeSeconds = since(t);
+
+    // 7. Body and flex after constraints (position-based), velocities, the new state.
+    t = Clock::now();
+    if (mAnyPinned || report.contacts > 0) {
+        Vec3 c1;
+        Mat3 A1;
+        fitAffine(xNew, c1, A1);
+        const Sl3Result r1 = projectToSL3(A1);
+        if (r1.ok) A1 = r1.matrix;
+        mVc = (c1 - mC) / dt;
+        if (report.contacts > 0) {
+            // restitution on the normal part of the body velocity, about the mean contact normal
+            Vec3 nSum = Vec3::Zero();
+            Real e = 0;
+            Index count = 0;
+            for (Index p = 0; p < n; ++p) {
+                if (!mContact[at(p)]) continue;
+                for (const Collider& col : colliders) {
+                    Vec3 g;
+                    if (col.evaluate(xNew[at(p)], g) <= 1e-9 * h) {
+                        nSum += g;
+                        e += col.restitution;
+                        ++count;
+                        break;
+                    }
+                }
+            }
+            if (count > 0 && nSum.norm() > 0) {
+                // The body meets the collider: its velocity into it stops (or bounces back with
+                // the restitution); otherwise the free points keep falling onto the held ones and
+                // fold the bottom layers within a few steps.
+                const Vec3 nrm = nSum.normalized();
+                const Real vn = vcBefore.dot(nrm);
+                if (vn < 0) {
+                    const Vec3 tangential = mVc - mVc.dot(nrm) * nrm;
+                    mVc = tangential - (e / static_cast<Real>(count)) * vn * nrm;
+                }
+            }
+        }
+        mAdot = (A1 - mA) / dt;
+        mC = c1;
+        mA = A1;
+    } else {
+        mC = cNew;
+        mA = aNew;
+    }
+    parallelFor(n, [&](Index p) { mV[at(p)] = (xNew[at(p)] - mX[at(p)]) / dt; });
+    report.kineticEnergy = parallelReduce(
+        n, Real(0), [&](Real& acc, Index p) { acc += Real(0.5) * mMass[at(p)] * mV[at(p)].squaredNorm(); },
+        [](Real a, Real b) { return a + b; });
+    mTangentPrev = mState.tangent;
+    mHavePrev = true;
+    mX.swap(xNew);
+    std::array<std::vector<Mat3>, 3> gammaOld;
+    if (mSet.realizedRate) gammaOld = mState.christoffel;
+    computeGeometricState(mLat, mX, mState);
+    if (mSet.realizedRate) {
+        // The rate carried to the next step is the change that happened (after reconstruction,
+        // colliders, pins and the volume projection), not the one that was asked for: what the
+        // constraints refused does not wind up in δΓ.
+        parallelFor(n, [&](Index p) {
+            PointConnection d;
+            for (std::size_t c = 0; c < 3; ++c) d[c] = mState.christoffel[c][at(p)] - gammaOld[c][at(p)];
+            if (mSet.traceFree) projectTraceFree(d);
+            Real norm2 = 0;
+            for (const Mat3& m : d) norm2 += m.squaredNorm();
+            const Real cap2 = mSet.maxDeltaGamma * mSet.maxDeltaGamma;
+            if (norm2 > cap2) {
+                const Real s = std::sqrt(cap2 / norm2);
+                for (Mat3& m : d) m *= s;
+            }
+            for (std::size_t c = 0; c < 3; ++c) mDGamma[c][at(p)] = d[c];
+        });
+    }
+    report.stateSeconds = since(t);
+    volumeFigures(report.maxCellVolumeError, report.totalVolumeDrift, report.invertedCells);
+    if (report.invertedCells > 0 && report.fault.empty())
+        report.fault = std::to_string(report.invertedCells) +
+                       " lattice cells inverted (the shape folded): use more damping, stiffness or substeps";
+    report.totalSeconds = since(tStart);
+    return report;
+}
+
+}  // namespace dgv

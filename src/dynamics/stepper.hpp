@@ -1,0 +1,210 @@
+#pragma once
+/// @file stepper.hpp
+/// @brief The dynamics step of one deformable body (seed section 4, "Computation Steps"), made to
+/// work: body (eqs 66-67), flex (eq 68, repaired), twist (eq 76, repaired), reconstruction of the
+/// positions from Γ + δΓ, collisions with static colliders, the per-cell volume projection and the
+/// new geometric state. docs/math.md, "The dynamics step", gives every departure from the notes
+/// and the evidence for it. In short:
+///  - One reference for the three motions. With m the point masses and X̃ the rest positions
+///    about the rest centre of mass, the motion splits exactly into its mass-weighted mean
+///    (body: c), its best affine fit in material coordinates (flex: A, x ≈ c + A X̃) and the
+///    remainder (twist, carried by Γ, which no affine map changes). Because the split is a linear
+///    projection, each part obeys the projected Newton equation exactly: c̈ = ⟨F⟩ (eq 67) and
+///    Ä = ⟨F X̃ᵀ⟩⟨X̃ X̃ᵀ⟩⁻¹ (the force's first moment; eq 68's averaged gradient leaves an O(1)
+///    error for nonlinear fields and is kept only as an option). After the twist's
+///    reconstruction the affine part of the result is replaced by A, so neither part drifts.
+///  - Flex in SL(3): Störmer-Verlet for A, the new A projected to the nearest SL(3) matrix and
+///    its velocity taken from the projected step (RATTLE-like), so det A = 1 every step.
+///  - Twist: eq 76 with W split, W = 2 F⁻¹ L F (F the frame [x_1 x_2 x_3], L the velocity
+///    gradient of the frames over the last step). The rotation part of L is applied exactly
+///    (eq 78 holds in the metric g, and literally when g ∝ 1: a rigidly spinning body); its
+///    stretch part only where it damps (eigenvalues that would amplify δΓ are clamped to zero,
+///    the measured cause of the blow-ups). Then the force term of eq 76, optional shape memory
+///    (−δt² k Γ) and damping (× exp(−ζ δt)), the trace-free projection (volume, docs/math.md) and a
+///    limiter on |δΓ| per point.
+///  - Reconstruction of the CHANGE: the displacement that Γ + δΓ asks for relative to Γ, as the
+///    least-squares fit (PoissonSolver::solveSteps) of the differences of the edge steps of the
+///    two connections' frames (both integrated by the same tree from the same root frame). With
+///    δΓ = 0 nothing moves; the reconstruction's own O(h²) error does not leak into the motion.
+///  - Colliders push points out (friction on the tangential step); the volume projection then
+///    runs with pinned and contact points held, so it neither moves pins nor pushes points back
+///    into a collider. With pins or contacts the body and flex velocities are re-derived from the
+///    resulting positions (position-based), with restitution on the normal part of the body
+///    velocity.
+///
+/// Units: world units (metres), seconds. Deterministic for any thread count.
+
+#include "base/types.hpp"
+#include "deform/volume.hpp"
+#include "dynamics/forces.hpp"
+#include "geom/geometric_state.hpp"
+#include "geom/lattice.hpp"
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace dgv {
+
+class PoissonSolver;
+
+/// How flex is driven (docs/math.md, "Flex").
+enum class FlexDrive {
+    FirstMoment,       ///< Ä = ⟨F X̃ᵀ⟩⟨X̃X̃ᵀ⟩⁻¹ (default; exact projection of Newton's equation)
+    AveragedGradient,  ///< Ä = ⟨∇F⟩ A, the seed's eq 68 literally (kept for comparison)
+};
+
+/// How the stretch part of W enters eq 76 (docs/math.md, "Twist").
+enum class TwistStretch {
+    DampOnly,  ///< default: the part of the frame stretch that damps δΓ, never the part that amplifies it
+    None,      ///< rotation only
+    Full,      ///< eq 76 as written (unstable in long runs; for comparison)
+};
+
+/// Material and integration settings of a body. Defaults: goo (no memory of its rest shape),
+/// damped at 1/s.
+struct DynamicsSettings {
+    Real density = 1000;              ///< kg/m^3
+    Real damping = 1;                 ///< ζ, 1/s: twist δΓ decays as exp(−ζ t); flex stretch rate too.
+                                      ///< Goo with 0 flows forever after a push and folds (docs/math.md)
+    Real shapeStiffness = 0;          ///< k, 1/s^2: restoring term toward the rest shape (jelly);
+                                      ///< wobble frequency sqrt(k)/(2π) Hz
+    FlexDrive flexDrive = FlexDrive::FirstMoment;
+    TwistStretch twistStretch = TwistStretch::DampOnly;
+    Real maxDeltaGamma = 0.05;        ///< limiter: |δΓ| (Frobenius over the 18 components, per
+                                      ///< lattice step) per point per step
+    /// Carry the connection change that happened (Γ_new − Γ_old, after every constraint) as the
+    /// next step's δΓ (true), or the one eq 76 asked for (false, the default). Measured: true
+    /// turns a collider's one-step squash into a lasting rate and folds the body (docs/math.md).
+    bool realizedRate = false;
+    bool traceFree = true;            ///< the trace-free projection of δΓ (volume); off only for tests of eq 78
+    Real volumeTolerance = 1e-5;      ///< volume projection: max_c |V/V0 − 1| after each step
+    bool projectVolume = true;
+    Real reconstructTolerance = 1e-6; ///< relative residual of the displacement solve
+    /// Problems by field name; empty when valid.
+    std::vector<std::string> validate() const;
+};
+
+/// One point's twist update (eq 76, repaired; file comment), in place on dGamma.
+/// @param F        the frame [x_1 x_2 x_3] now (world units per lattice step)
+/// @param Fi       its inverse (rows: the duals x^a)
+/// @param step     the frames' step over the last time step, F F_prev⁻¹ (1 + δt L)
+/// @param hessian  ∇∇F at the point (forces.hpp convention)
+/// @param gamma    Γ now (for the shape memory)
+/// @return whether the limiter scaled δΓ down
+bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::array<Mat3, 3>& hessian,
+                 const std::array<Mat3, 3>& gamma, Real dt, const DynamicsSettings& settings,
+                 std::array<Mat3, 3>& dGamma);
+
+/// A static collider as a signed distance (negative inside) with its gradient.
+struct Collider {
+    enum class Kind { Plane, Sphere, Distance };
+    Kind kind = Kind::Plane;
+    Vec3 point = Vec3::Zero();        ///< plane: a point on it; sphere: the centre
+    Vec3 normal = Vec3::UnitY();      ///< plane: unit normal pointing out of the solid side
+    Real radius = 1;                  ///< sphere
+    /// Distance: signed distance at x, gradient written to *gradient (unit near the surface).
+    std::function<Real(const Vec3& x, Vec3* gradient)> distance;
+    Real friction = 0.5;              ///< 0 slip .. 1 stick (fraction of the tangential step removed)
+    Real restitution = 0;             ///< 0..1, on the normal part of the body velocity
+
+    /// Signed distance and its gradient at x.
+    Real evaluate(const Vec3& x, Vec3& gradient) const;
+};
+
+/// Per-step figures (also summed into a frame's stats by the caller).
+struct StepReport {
+    Real kineticEnergy = 0;           ///< ½ Σ m |v|², v = (x_new − x_old)/δt, J
+    Real sumDeltaGamma2 = 0;          ///< Σ_p Σ_cab (δΓ^c_ab)²
+    Real maxCellVolumeError = 0;      ///< max_c |V_c/V0_c − 1| after the step
+    Real totalVolumeDrift = 0;        ///< Σ V / Σ V0 − 1 after the step
+    Index invertedCells = 0;          ///< cells with V <= 0
+    Index contacts = 0;               ///< points in contact with a collider this step
+    Index limitedPoints = 0;          ///< points whose δΓ the limiter scaled down
+    int reconstructIterations = 0;    ///< CG iterations of the displacement solve
+    int volumeIterations = 0;         ///< Gauss-Newton iterations of the volume projection
+    bool volumeConverged = true;
+    std::string fault;                ///< numerical trouble ("stage: what"); empty when none
+    // wall-clock seconds of each stage
+    double forcesSeconds = 0, bodyFlexSeconds = 0, twistSeconds = 0, reconstructSeconds = 0,
+           collideSeconds = 0, volumeSeconds = 0, stateSeconds = 0, totalSeconds = 0;
+};
+
+/// One deformable body and its dynamic state.
+class DeformableBody {
+public:
+    /// @param lattice   the material lattice (kept by reference: must outlive the body)
+    /// @param positions #P initial world positions (usually restPositions(lattice))
+    /// @param pinned    #P flags (1: the point never moves), or empty
+    DeformableBody(const Lattice& lattice, std::vector<Vec3> positions, const DynamicsSettings& settings,
+                   std::vector<unsigned char> pinned = {});
+    ~DeformableBody();
+    DeformableBody(const DeformableBody&) = delete;
+    DeformableBody& operator=(const DeformableBody&) = delete;
+
+    /// Sets the initial velocity: an affine motion v(x) = velocity + L (x − c), L in 1/s.
+    void setAffineVelocity(const Vec3& velocity, const Mat3& gradient);
+    /// Sets the initial velocity: a rigid motion v(x) = velocity + ω × (x − c). ω in rad/s.
+    void setRigidVelocity(const Vec3& velocity, const Vec3& angularVelocity);
+
+    /// Advances by dt seconds in the field at scene frame `frame` (the field's time at the start
+    /// of the step).
+    StepReport step(const ForceField& field, Real frame, Real dt, const std::vector<Collider>& colliders);
+
+    const Lattice& lattice() const { return mLat; }
+    const std::vector<Vec3>& positions() const { return mX; }
+    const std::vector<Vec3>& velocities() const { return mV; }  ///< over the last step, world units/s
+    const GeometricState& state() const { return mState; }
+    const std::vector<unsigned char>& contact() const { return mContact; }  ///< #P, last step
+    const std::vector<unsigned char>& pinned() const { return mPinned; }
+    const LatticeCells& cells() const { return mCells; }
+    const std::vector<Real>& restVolumes() const { return mRestVolumes; }
+    const std::vector<Real>& masses() const { return mMass; }
+    /// The connection change δΓ (field[c][p](a, b)), for tests and diagnostics; settable to
+    /// give a body an initial non-affine motion.
+    std::array<std::vector<Mat3>, 3>& deltaGamma() { return mDGamma; }
+    const Vec3& centre() const { return mC; }
+    const Vec3& centreVelocity() const { return mVc; }  ///< at the last half step
+    const Mat3& flex() const { return mA; }             ///< A, det 1
+    const Mat3& flexVelocity() const { return mAdot; }  ///< Ȧ at the last half step
+    /// Σ_p Σ_cab (δΓ^c_ab)² now.
+    Real sumDeltaGamma2() const;
+    /// Volume figures of the current positions.
+    void volumeFigures(Real& maxCellError, Real& totalDrift, Index& inverted) const;
+
+private:
+    void fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& affine) const;
+
+    const Lattice& mLat;
+    DynamicsSettings mSet;
+    LatticeCells mCells;
+    std::vector<Real> mRestVolumes;
+    Real mRestTotal = 0;
+    std::vector<Real> mMass;
+    Real mTotalMass = 0;
+    std::vector<Vec3> mRestRel;   ///< X̃: rest position about the rest centre of mass
+    Mat3 mS0inv = Mat3::Identity();
+    std::vector<unsigned char> mPinned;
+    bool mAnyPinned = false;
+    std::vector<Vec3> mPinnedPositions;
+
+    std::vector<Vec3> mX, mV;
+    GeometricState mState;
+    std::array<std::vector<Vec3>, 3> mTangentPrev;
+    bool mHavePrev = false;
+    std::array<std::vector<Mat3>, 3> mDGamma;
+    std::vector<unsigned char> mContact;
+
+    Vec3 mC = Vec3::Zero(), mVc = Vec3::Zero();
+    Mat3 mA = Mat3::Identity(), mAdot = Mat3::Zero();
+    bool mHalfStep = false;       ///< mVc/mAdot are half-step velocities (after the first step)
+
+    std::vector<Index> mSolverFixed;  ///< the reconstruction's reference points (pins, or a centre point per component)
+    std::unique_ptr<PoissonSolver> mSolver;
+    std::vector<Vec3> mDisplacement;  ///< last step's twist displacement (warm start)
+    VolumeProjectionCache mVolumeCache;  ///< the volume projection's multigrid, kept between steps
+};
+
+}  // namespace dgv

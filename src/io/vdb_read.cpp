@@ -1,0 +1,92 @@
+#include "io/vdb_read.hpp"
+
+#include "base/errors.hpp"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/File.h>
+#include <openvdb/math/Maps.h>
+
+#include <cmath>
+#include <fstream>
+
+namespace dgv {
+
+SdfGrid readVdbLevelSet(const std::filesystem::path& path, const std::string& gridName, std::size_t maxSamples) {
+    const std::string file = path.string();
+    auto bad = [&](const std::string& what) { throw InputError(file, "", what); };
+    {
+        std::ifstream in(path, std::ios::binary);
+        if (!in) bad("cannot open the file");
+        char magic[8] = {};
+        in.read(magic, 8);
+        // OpenVDB files start with the int32 magic 0x56444220 ("VDB" + space), little endian
+        if (in.gcount() != 8 || !(magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56))
+            bad("not an OpenVDB file");
+    }
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr grid;
+    try {
+        openvdb::io::File f(file);
+        f.open(false);
+        openvdb::GridBase::Ptr base;
+        if (!gridName.empty()) {
+            if (!f.hasGrid(gridName)) {
+                f.close();
+                bad("no grid named '" + gridName + "'");
+            }
+            base = f.readGrid(gridName);
+        } else {
+            auto metas = f.readAllGridMetadata();
+            for (const auto& m : *metas)
+                if (m->getGridClass() == openvdb::GRID_LEVEL_SET) {
+                    base = f.readGrid(m->getName());
+                    break;
+                }
+            if (!base) {
+                f.close();
+                bad("no level-set grid in the file");
+            }
+        }
+        f.close();
+        grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+        if (!grid) bad("grid '" + base->getName() + "' holds " + base->valueType() + " values, not float distances");
+        if (grid->getGridClass() != openvdb::GRID_LEVEL_SET) bad("grid '" + grid->getName() + "' is not a level set");
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::exception& e) {
+        bad(std::string("cannot read it as OpenVDB: ") + e.what());
+    }
+
+    const openvdb::math::MapBase::ConstPtr map = grid->transform().baseMap();
+    const openvdb::Vec3d vox = grid->voxelSize();
+    const bool uniform = std::abs(vox[0] - vox[1]) <= 1e-9 * vox[0] && std::abs(vox[0] - vox[2]) <= 1e-9 * vox[0];
+    if (!map->isLinear() || !uniform || !(map->isType<openvdb::math::UniformScaleTranslateMap>() ||
+                                          map->isType<openvdb::math::UniformScaleMap>() ||
+                                          map->isType<openvdb::math::TranslationMap>() ||
+                                          map->isType<openvdb::math::ScaleTranslateMap>() ||
+                                          map->isType<openvdb::math::ScaleMap>()))
+        bad("grid '" + grid->getName() + "': only uniform scale + translation transforms are supported (got " + map->type() + ")");
+
+    const openvdb::CoordBBox active = grid->evalActiveVoxelBoundingBox();
+    if (active.empty()) bad("grid '" + grid->getName() + "' has no active voxels");
+    const openvdb::Coord lo = active.min() - openvdb::Coord(1), hi = active.max() + openvdb::Coord(1);
+    SdfGrid out;
+    out.dims = Vec3i(hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1);
+    const double n = double(out.dims.x()) * out.dims.y() * out.dims.z();
+    if (n > double(maxSamples)) bad("grid '" + grid->getName() + "' needs " + std::to_string(static_cast<long long>(n)) + " dense samples, more than the limit");
+    const openvdb::Vec3d o = grid->indexToWorld(lo);
+    out.origin = Vec3(o.x(), o.y(), o.z());
+    out.spacing = vox[0];
+    out.narrowBand = std::abs(double(grid->background()));
+    out.values.resize(static_cast<std::size_t>(n));
+    auto acc = grid->getConstAccessor();
+    for (int k = 0; k < out.dims.z(); ++k)
+        for (int j = 0; j < out.dims.y(); ++j)
+            for (int i = 0; i < out.dims.x(); ++i)
+                out.values[static_cast<std::size_t>(out.linearIndex(i, j, k))] = acc.getValue(lo + openvdb::Coord(i, j, k));
+    for (float v : out.values)
+        if (!std::isfinite(v)) bad("grid '" + grid->getName() + "' holds non-finite distances");
+    return out;
+}
+
+}  // namespace dgv

@@ -1,0 +1,166 @@
+// The frame loop of a scene's dynamics (simulation.hpp).
+
+#include "sim/simulation.hpp"
+
+#include "base/check.hpp"
+#include "base/errors.hpp"
+#include "base/types.hpp"
+#include "sim/forces_from_scene.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace dgv {
+
+namespace {
+inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+}  // namespace
+
+Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>& lattices, bool always)
+    : mScene(scene) {
+    DGV_CHECK_EQ(lattices.size(), scene.objects.size());
+    mField = forceFieldFromScene(scene.forces, scene.path);
+    for (std::size_t i = 0; i < scene.colliders.size(); ++i) {
+        const ColliderDesc& d = scene.colliders[i];
+        Collider c;
+        c.friction = d.friction;
+        c.restitution = d.restitution;
+        switch (d.type) {
+            case ColliderType::Ground:
+                c.kind = Collider::Kind::Plane;
+                c.point = Vec3(0, d.height, 0);
+                c.normal = Vec3::UnitY();
+                break;
+            case ColliderType::Sphere:
+                c.kind = Collider::Kind::Sphere;
+                c.point = d.centre;
+                c.radius = d.radius;
+                break;
+            case ColliderType::Mesh:
+                throw InputError(scene.path, "colliders[" + std::to_string(i) + "].type",
+                                 "mesh colliders are not simulated yet; use a ground plane or a sphere");
+        }
+        mColliders.push_back(std::move(c));
+    }
+    bool anyMotion = !scene.forces.empty();
+    mBodies.resize(scene.objects.size());
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        const ObjectDesc& o = scene.objects[i];
+        if (!lattices[i] || !o.deformable) continue;
+        if (o.velocity.squaredNorm() > 0 || o.spinDegrees.squaredNorm() > 0) anyMotion = true;
+    }
+    mActive = anyMotion;
+    mFrame = scene.frameStart;
+    if (!mActive && !always) return;
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        const ObjectDesc& o = scene.objects[i];
+        if (!lattices[i] || !o.deformable || lattices[i]->size() == 0) continue;
+        const Lattice& lat = *lattices[i];
+        DynamicsSettings set;
+        set.density = o.material.density;
+        set.damping = o.material.damping;
+        set.shapeStiffness = o.material.stiffness;
+        set.maxDeltaGamma = o.material.maxDeltaGamma;
+        std::vector<unsigned char> pinned(at(lat.size()), 0);
+        if (o.pin.kind != PinDesc::Kind::None)
+            for (Index p = 0; p < lat.size(); ++p) pinned[at(p)] = o.pin.contains(lat.restPosition(p)) ? 1 : 0;
+        try {
+            mBodies[i] = std::make_unique<DeformableBody>(lat, restPositions(lat), set, pinned);
+        } catch (const InputError& e) {
+            throw InputError(scene.path, "objects[" + std::to_string(i) + "].material", e.problem());
+        }
+        mBodies[i]->setRigidVelocity(o.velocity, o.spinDegrees * (M_PI / 180.0));
+    }
+    mFrame = scene.frameStart;
+}
+
+Simulation::~Simulation() = default;
+
+const DeformableBody* Simulation::body(std::size_t object) const {
+    return object < mBodies.size() ? mBodies[object].get() : nullptr;
+}
+
+FrameStats Simulation::currentStats(int frame) const {
+    FrameStats s;
+    s.frame = frame;
+    s.time = (frame - mScene.frameStart) / mScene.fps;
+    Real total = 0, rest = 0;
+    for (const auto& b : mBodies) {
+        if (!b) continue;
+        Real err = 0, drift = 0;
+        Index inv = 0;
+        b->volumeFigures(err, drift, inv);
+        s.maxCellVolumeError = std::max(s.maxCellVolumeError, err);
+        s.invertedCells += inv;
+        Real r = 0;
+        for (Real v : b->restVolumes()) r += v;
+        rest += r;
+        total += r * (1 + drift);
+        for (Index p = 0; p < b->lattice().size(); ++p) {
+            s.kineticEnergy += 0.5 * b->masses()[at(p)] * b->velocities()[at(p)].squaredNorm();
+            s.contacts += b->contact()[at(p)] ? 1 : 0;
+        }
+    }
+    s.totalVolumeDrift = rest > 0 ? total / rest - 1 : 0;
+    return s;
+}
+
+FrameStats Simulation::advanceTo(int frame) {
+    DGV_CHECK_EQ(frame, mFrame + 1);
+    FrameStats s;
+    s.frame = frame;
+    s.time = (frame - mScene.frameStart) / mScene.fps;
+    const int sub = mScene.substeps;
+    const Real dt = 1 / (mScene.fps * sub);
+    double seconds = 0;
+    for (int k = 0; k < sub; ++k) {
+        const Real fieldFrame = (frame - 1) + Real(k) / sub;
+        const auto t0 = std::chrono::steady_clock::now();
+        bool first = true;
+        for (std::size_t i = 0; i < mBodies.size(); ++i) {
+            if (!mBodies[i]) continue;
+            const StepReport r = mBodies[i]->step(mField, fieldFrame, dt, mColliders);
+            const std::string where = "frame " + std::to_string(frame) + ", substep " + std::to_string(k + 1) +
+                                      ", object '" + mScene.objects[i].name + "'";
+            if (!r.fault.empty()) throw RuntimeError("dynamics: " + where + ": " + r.fault);
+            for (const Vec3& x : mBodies[i]->positions())
+                if (!allFiniteNoTrap(x))
+                    throw RuntimeError("dynamics: " + where + ": a position became non-finite; use more substeps or damping");
+            s.maxCellVolumeError = std::max(s.maxCellVolumeError, r.maxCellVolumeError);
+            s.invertedCells = std::max(s.invertedCells, r.invertedCells);
+            s.limitedPoints += r.limitedPoints;
+            if (first) s.lastStep = r;
+            first = false;
+        }
+        seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    mFrame = frame;
+    const FrameStats now = currentStats(frame);
+    s.kineticEnergy = now.kineticEnergy;
+    s.totalVolumeDrift = now.totalVolumeDrift;
+    s.contacts = now.contacts;
+    s.maxCellVolumeError = std::max(s.maxCellVolumeError, now.maxCellVolumeError);
+    for (const auto& b : mBodies) {
+        if (!b) continue;
+        s.sumDeltaGamma2 += b->sumDeltaGamma2();
+    }
+    s.stepMs = 1000 * seconds / sub;
+    return s;
+}
+
+std::string statsCsvHeader() {
+    return "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
+           "contacts,limited_points,step_ms";
+}
+
+std::string statsCsvRow(const FrameStats& s) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f", s.frame, s.time, s.kineticEnergy,
+                  s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift, static_cast<long long>(s.invertedCells),
+                  static_cast<long long>(s.contacts), static_cast<long long>(s.limitedPoints), s.stepMs);
+    return buf;
+}
+
+}  // namespace dgv

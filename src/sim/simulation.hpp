@@ -1,0 +1,75 @@
+#pragma once
+/// @file simulation.hpp
+/// @brief The frame loop of a scene's dynamics: one DeformableBody per deformable object, the
+/// scene's force field and colliders, `substeps` steps per frame, and each frame's figures
+/// (the columns of out/<scene>/stats.csv).
+///
+/// Time: frame f's state is the state after (f − frames.start) frames of simulation; the field
+/// is evaluated at the fractional frame at the start of each substep. δt = 1/(fps · substeps).
+
+#include "base/types.hpp"
+#include "dynamics/forces.hpp"
+#include "dynamics/stepper.hpp"
+#include "geom/lattice.hpp"
+#include "sim/scene.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace dgv {
+
+/// One frame's figures, over all bodies (stats.csv; docs/dynamics.md).
+struct FrameStats {
+    int frame = 0;
+    Real time = 0;                 ///< seconds since frames.start
+    Real kineticEnergy = 0;        ///< J, at the end of the frame
+    Real sumDeltaGamma2 = 0;       ///< Σ |δΓ|², at the end of the frame
+    Real maxCellVolumeError = 0;   ///< max over bodies, cells and the frame's substeps
+    Real totalVolumeDrift = 0;     ///< Σ V / Σ V0 − 1 over all bodies, end of the frame
+    Index invertedCells = 0;       ///< max over the substeps
+    Index contacts = 0;            ///< points in contact, end of the frame
+    Index limitedPoints = 0;       ///< summed over the substeps
+    double stepMs = 0;             ///< mean wall-clock time of one substep (all bodies), ms
+    StepReport lastStep;           ///< the last substep's report of the first body (stage times)
+};
+
+class Simulation {
+public:
+    /// @param scene      the validated scene (forces, colliders, objects' materials)
+    /// @param lattices   one per scene object, nullptr for objects that do not move (kept by
+    ///                   reference: must outlive the simulation)
+    /// Throws InputError for an impossible setting (e.g. a pin that holds no point is allowed,
+    /// but a collider mesh that is not supported is not).
+    /// @param always     build the bodies even when nothing moves (a VDB cache of a still scene)
+    Simulation(const SceneDesc& scene, const std::vector<const Lattice*>& lattices, bool always = false);
+    ~Simulation();
+
+    /// Whether anything moves: some object is deformable and the scene has forces or an
+    /// initial velocity.
+    bool active() const { return mActive; }
+    /// Simulates frame `frame` (must be the frame after the last one; the first call's frame
+    /// must be frames.start + 1). Throws RuntimeError naming the frame, stage and object on
+    /// numerical trouble (an inverted affine part, a non-finite position).
+    FrameStats advanceTo(int frame);
+    /// Figures of the current state without stepping (for frames.start).
+    FrameStats currentStats(int frame) const;
+
+    int frame() const { return mFrame; }
+    /// The body of scene object i, or nullptr.
+    const DeformableBody* body(std::size_t object) const;
+
+private:
+    const SceneDesc& mScene;
+    ForceField mField;
+    std::vector<Collider> mColliders;
+    std::vector<std::unique_ptr<DeformableBody>> mBodies;  ///< per object (null: static)
+    bool mActive = false;
+    int mFrame = 0;
+};
+
+/// stats.csv's header line (no newline) and one frame's row.
+std::string statsCsvHeader();
+std::string statsCsvRow(const FrameStats& s);
+
+}  // namespace dgv

@@ -1,0 +1,184 @@
+// Whole runs of the dgv executable under faults and restarts (docs/robustness.md): an unwritable
+// output folder, a full disk, a killed run, --resume, and thread-count determinism.
+
+#include "e2e/e2e_run.hpp"
+#include "support/helpers.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+using namespace dgv;
+using namespace dgv::e2e;
+
+namespace {
+
+/// A small sphere scene ("small.json") in `dir`: `frames` frames of `w` x `h`, a turntable camera
+/// so that every frame differs.
+fs::path writeScene(const fs::path& dir, int frames, int w = 64, int h = 48) {
+    const fs::path scene = dir / "small.json";
+    std::ofstream(scene) << R"({"frames": {"start": 1, "end": )" << frames << R"(},
+  "objects": [{"primitive": {"type": "sphere", "radius": 0.5}, "resolution": 12, "color": [0.8, 0.3, 0.2]},
+              {"primitive": {"type": "box", "size": [0.4, 0.4, 0.4]}, "transform": {"translate": [0.7, 0, 0]}, "resolution": 8}],
+  "camera": {"type": "turntable", "degrees": 360, "elevation": 20},
+  "render": {"width": )" << w << R"(, "height": )" << h << R"(, "supersample": 1}})" << "\n";
+    return scene;
+}
+
+std::string frameName(int frame) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "small.%04d.png", frame);
+    return buf;
+}
+
+/// The files in `dir` (names only), sorted; temporaries (".name.tmp-PID") included.
+std::vector<std::string> namesIn(const fs::path& dir) { return fs::exists(dir) ? snapshot(dir) : std::vector<std::string>{}; }
+
+std::vector<std::string> frameNames(int first, int last) {
+    std::vector<std::string> v;
+    for (int f = first; f <= last; ++f) v.push_back(frameName(f));
+    return v;
+}
+
+}  // namespace
+
+TEST_CASE("e2e: an unwritable output folder gives one line, exit 1, and no partial frame", "[e2e][faults]") {
+    test::TempDir dir("e2e_readonly");
+    writeScene(dir.path(), 2);
+    fs::path out;
+    if (geteuid() != 0) {
+        out = dir.path() / "ro";
+        fs::create_directories(out);
+        REQUIRE(::chmod(out.c_str(), 0555) == 0);
+    } else {
+        // root writes through chmod 0555; /proc/self is a folder in which no one can create files.
+        out = "/proc/self";
+    }
+    const Run r = runDgvIn(dir.path(), "-q render small.json --out " + quote(out));
+    if (geteuid() != 0) ::chmod(out.c_str(), 0755);
+    INFO("stderr: " << r.err);
+    CHECK(r.exitCode == 1);
+    CHECK(lineCount(r.err) == 1);
+    CHECK_THAT(r.err, Catch::StartsWith("dgv: error: cannot write " + (out / frameName(1)).string() + ": "));
+    if (geteuid() != 0) CHECK(namesIn(out).empty());
+    CHECK(namesIn(dir.path()) == std::vector<std::string>{"small.json"});
+}
+
+TEST_CASE("e2e: a full disk fails the frame being written and leaves no partial file", "[e2e][faults]") {
+    // RLIMIT_FSIZE makes write() fail with EFBIG (SIGXFSZ ignored) like a full disk would, without
+    // root or a special file system; frame 1 (~7 kB) cannot be written in 1 kB.
+    test::TempDir dir("e2e_full");
+    writeScene(dir.path(), 3, 128, 96);
+    const Run r = runDgvIn(dir.path(), "-q render small.json --out out", "trap '' XFSZ; ulimit -f 1;");
+    INFO("stderr: " << r.err);
+    CHECK(r.exitCode == 1);
+    CHECK(lineCount(r.err) == 1);
+    CHECK_THAT(r.err, Catch::StartsWith("dgv: error: cannot write " + (dir.path() / "out" / frameName(1)).string() + ": "));
+    CHECK_THAT(r.err, Catch::Contains("File too large"));
+    CHECK(namesIn(dir.path() / "out").empty());  // no frame, no temporary
+}
+
+TEST_CASE("e2e: renders are byte-identical for 1 and 2 threads", "[e2e][determinism]") {
+    // --threads sets TBB's global_control (voxelising, the lattice and embedding: parallelFor /
+    // parallelReduce); LP_NUM_THREADS sets Mesa llvmpipe's rasteriser threads.
+    test::TempDir dir("e2e_threads");
+    writeScene(dir.path(), 2, 96, 72);
+    const Run one = runDgvIn(dir.path(), "-q --threads 1 render small.json --out t1", "LP_NUM_THREADS=1");
+    const Run two = runDgvIn(dir.path(), "-q --threads 2 render small.json --out t2", "LP_NUM_THREADS=2");
+    const Run all = runDgvIn(dir.path(), "-q render small.json --out t0", "LP_NUM_THREADS=4");
+    REQUIRE(one.exitCode == 0);
+    REQUIRE(two.exitCode == 0);
+    REQUIRE(all.exitCode == 0);
+    for (int f = 1; f <= 2; ++f) {
+        INFO(frameName(f));
+        const std::string a = readAll(dir.path() / "t1" / frameName(f));
+        REQUIRE(a.size() > 100);
+        CHECK(readAll(dir.path() / "t2" / frameName(f)) == a);
+        CHECK(readAll(dir.path() / "t0" / frameName(f)) == a);
+    }
+}
+
+TEST_CASE("e2e: --resume re-renders exactly the missing, truncated and foreign frames", "[e2e][resume]") {
+    test::TempDir dir("e2e_resume");
+    writeScene(dir.path(), 4);
+    REQUIRE(runDgvIn(dir.path(), "-q render small.json --out full").exitCode == 0);
+    REQUIRE(runDgvIn(dir.path(), "-q render small.json --out part").exitCode == 0);
+    const fs::path part = dir.path() / "part";
+    // frame 2 truncated (a half-written file from some other tool), frame 3 deleted, frame 4
+    // replaced by frame 1's file (complete, but the wrong frame's metadata).
+    fs::resize_file(part / frameName(2), fs::file_size(part / frameName(2)) / 2);
+    fs::remove(part / frameName(3));
+    fs::copy_file(part / frameName(1), part / frameName(4), fs::copy_options::overwrite_existing);
+    const auto keptTime = fs::last_write_time(part / frameName(1));
+
+    const Run r = runDgvIn(dir.path(), "--progress log render small.json --out part --resume");
+    INFO("stderr: " << r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK_THAT(r.err, Catch::Contains(frameName(1) + " (complete, kept)"));
+    for (int f = 2; f <= 4; ++f) CHECK_THAT(r.err, !Catch::Contains(frameName(f) + " (complete, kept)"));
+    CHECK_THAT(r.err, Catch::Contains("resume: kept 1 complete frames, rendered 3"));
+    CHECK(fs::last_write_time(part / frameName(1)) == keptTime);  // not rewritten
+    CHECK(namesIn(part) == frameNames(1, 4));
+    for (int f = 1; f <= 4; ++f) {
+        INFO(frameName(f));
+        CHECK(readAll(part / frameName(f)) == readAll(dir.path() / "full" / frameName(f)));
+    }
+    // Everything complete: a second --resume renders nothing.
+    const Run again = runDgvIn(dir.path(), "--progress log render small.json --out part --resume");
+    CHECK(again.exitCode == 0);
+    CHECK_THAT(again.err, Catch::Contains("resume: kept 4 complete frames, rendered 0"));
+    // A different resolution does not match the frames on disk: all are rendered again.
+    const Run bigger = runDgvIn(dir.path(), "--progress log render small.json --out part --resume --resolution 80x60");
+    CHECK(bigger.exitCode == 0);
+    CHECK_THAT(bigger.err, Catch::Contains("resume: kept 0 complete frames, rendered 4"));
+}
+
+TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume finishes it byte-identically",
+          "[e2e][resume][faults]") {
+    test::TempDir dir("e2e_kill");
+    const int frames = 24;
+    writeScene(dir.path(), frames);
+    REQUIRE(runDgvIn(dir.path(), "-q render small.json --out full").exitCode == 0);
+    // Start a run, wait for its second frame, then SIGTERM it (the shell reports dgv's exit code).
+    const std::string killer =
+        "( " + quote(DGV_EXE) + " -q render small.json --out part & pid=$!; n=0; "
+        "while [ ! -e part/" + frameName(2) + " ] && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
+        "kill -TERM $pid; wait $pid; echo $? > killed.rc ) 2> killed.err; true;";
+    const Run setup = runDgvIn(dir.path(), "--version", killer);
+    REQUIRE(setup.exitCode == 0);
+    const int killedRc = std::stoi(readAll(dir.path() / "killed.rc"));
+    const std::string killedErr = readAll(dir.path() / "killed.err");
+    fs::remove(dir.path() / "killed.rc");
+    fs::remove(dir.path() / "killed.err");
+    const fs::path part = dir.path() / "part";
+    const std::vector<std::string> left = namesIn(part);
+    INFO("exit " << killedRc << ", " << left.size() << " files left, stderr: " << killedErr);
+    // 130 (interrupted) with one line, or, on a very fast machine, 0 (finished before the signal).
+    // Not 1: the handler removes the temporary being written, and that failed write is the
+    // interruption, not an I/O error.
+    CHECK((killedRc == 130 || killedRc == 0));
+    if (killedRc == 130) {
+        CHECK(lineCount(killedErr) == 1);
+        CHECK_THAT(killedErr, Catch::Contains("interrupted"));
+    }
+    for (const std::string& name : left) {
+        INFO(name);
+        CHECK(name.front() != '.');  // no temporary left behind
+        CHECK(readAll(part / name) == readAll(dir.path() / "full" / name));  // every frame left is complete
+    }
+    const Run r = runDgvIn(dir.path(), "--progress log render small.json --out part --resume");
+    INFO("stderr: " << r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK_THAT(r.err, Catch::Contains("resume: kept " + std::to_string(left.size()) + " complete frames"));
+    CHECK(namesIn(part) == frameNames(1, frames));
+    for (int f = 1; f <= frames; ++f) {
+        INFO(frameName(f));
+        CHECK(readAll(part / frameName(f)) == readAll(dir.path() / "full" / frameName(f)));
+    }
+}

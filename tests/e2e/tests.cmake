@@ -1,0 +1,5 @@
+# End-to-end tests: the dgv executable run as a user would (docs/robustness.md).
+list(APPEND DGV_TEST_SOURCES
+  ${CMAKE_CURRENT_LIST_DIR}/test_bad_input.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_runs.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_write_faults.cpp)
