@@ -23,6 +23,7 @@ void voxelise(std::ostream& out, const BenchOptions& options);  // bench_voxelis
 void render(std::ostream& out, const BenchOptions& options);    // bench_render.cpp
 void reconstruct(std::ostream& out, const BenchOptions& options);  // bench_reconstruct.cpp
 void gln(std::ostream& out, const BenchOptions& options);          // bench_gln.cpp
+void step(std::ostream& out, const BenchOptions& options);         // bench_step.cpp
 void vdb(std::ostream& out, const BenchOptions& options);          // bench_vdb.cpp
 void volume(std::ostream& out, const BenchOptions& options);       // bench_volume.cpp
 

@@ -1,0 +1,83 @@
+// `dgv bench step`: one full dynamics step (forces, body and flex, twist, reconstruction,
+// colliders, volume projection, state) of a ball of material points in a gentle vortex, as the
+// scenes run it (dynamics/stepper.hpp), with the time of each stage; balls of radius 8, 16 and
+// 32 voxels (2.1k, 17k, 137k points; radius 8 and 16 with --quick), and the fitted growth of the
+// step time with the number of points. Each ball first takes 4 steps (the volume projection's
+// multigrid and the warm starts settle), then `repeats` timed steps. Table: docs/benchmarks.md.
+#include "app/bench.hpp"
+
+#include "dynamics/stepper.hpp"
+#include "geom/lattice.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace dgv::bench {
+
+namespace {
+
+Lattice stepBall(Real radius, Real h) {
+    const int n = static_cast<int>(std::ceil(2 * radius)) + 3;
+    const Vec3i dims(n, n, n);
+    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
+    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i)
+                if ((Vec3(i, j, k) - c).norm() <= radius) mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
+    return buildLattice(-h * c, h, dims, mask);
+}
+
+}  // namespace
+
+void step(std::ostream& out, const BenchOptions& options) {
+    std::vector<Real> radii = {8, 16};
+    if (!options.quick) radii.push_back(32);
+    const int repeats = std::max(1, options.repeats);
+    std::vector<double> logN, logT;
+    for (Real r : radii) {
+        const Real h = 0.5 / r;  // a ball of radius 0.5 m
+        const Lattice lat = stepBall(r, h);
+        DeformableBody body(lat, restPositions(lat), DynamicsSettings{});
+        ForceField f;
+        ForceTerm t;
+        t.kind = ForceKind::Vortex;
+        t.centre = Vec3(-0.2, 0, 0);
+        t.axis = Vec3::UnitY();
+        t.radius = 0.6;
+        t.strength = Keyframes::constant(0.6);
+        f.add(t);
+        const Real dt = 1.0 / 48;
+        for (int s = 0; s < 4; ++s) (void)body.step(f, 1, dt, {});
+        std::vector<StepReport> reports;
+        for (int s = 0; s < repeats; ++s) reports.push_back(body.step(f, 1, dt, {}));
+        std::sort(reports.begin(), reports.end(),
+                  [](const StepReport& a, const StepReport& b) { return a.totalSeconds < b.totalSeconds; });
+        const StepReport& best = reports.front();
+        const StepReport& med = reports[reports.size() / 2];
+        const std::string tag = "step_r" + std::to_string(static_cast<int>(r));
+        out << tag << "_points: " << lat.size() << "\n";
+        out << tag << "_seconds_min: " << best.totalSeconds << " s\n";
+        out << tag << "_seconds_median: " << med.totalSeconds << " s\n";
+        out << tag << "_forces: " << best.forcesSeconds << " s\n";
+        out << tag << "_body_flex: " << best.bodyFlexSeconds << " s\n";
+        out << tag << "_twist: " << best.twistSeconds << " s\n";
+        out << tag << "_reconstruct: " << best.reconstructSeconds << " s (" << best.reconstructIterations << " CG iterations)\n";
+        out << tag << "_collide: " << best.collideSeconds << " s\n";
+        out << tag << "_volume: " << best.volumeSeconds << " s (" << best.volumeIterations << " Gauss-Newton iterations)\n";
+        out << tag << "_state: " << best.stateSeconds << " s\n";
+        out << tag << "_max_cell_volume_error: " << best.maxCellVolumeError << "\n";
+        logN.push_back(std::log(static_cast<double>(lat.size())));
+        logT.push_back(std::log(best.totalSeconds));
+    }
+    if (logN.size() >= 2) {
+        const double slope = (logT.back() - logT.front()) / (logN.back() - logN.front());
+        out << "step_time_growth_exponent: " << slope << " (step time ~ points^exponent, smallest to largest ball)\n";
+    }
+    out << "step_target: one step of the radius-32 ball (137k points) in < 0.05 s on 2 cores\n";
+}
+
+}  // namespace dgv::bench
