@@ -391,11 +391,18 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
     if (!(maxStep <= 2 * h)) {  // also NaN
         // The twist's displacement left the lattice's reach in one step (measured: it follows
         // a frame that has become near-singular at the boundary after long shearing).
-        char what[200];
+        Index worst = 0;
+        for (Index p = 0; p < n; ++p)
+            if (!(mDisplacement[at(p)].norm() <= mDisplacement[at(worst)].norm())) worst = p;
+        const Vec3i& u = mLat.coords[at(worst)];
+        const Vec3& xw = mX[at(worst)];
+        char what[400];
         std::snprintf(what, sizeof what,
-                      "reconstruction: the twist moved a point %.3g voxels in one step (solve %s); the shape is "
-                      "sheared past what the lattice resolves: use more damping, more substeps or a briefer force",
-                      maxStep / h, rec.converged ? "converged" : "did not converge");
+                      "reconstruction: the twist moved material point u = (%d, %d, %d) at (%.4g, %.4g, %.4g) %.3g voxels "
+                      "in one step (solve %s); the shape is sheared past what the lattice resolves (measured: a "
+                      "boundary frame folds first): use more damping, more substeps or a briefer force",
+                      u.x(), u.y(), u.z(), xw.x(), xw.y(), xw.z(), maxStep / h,
+                      rec.converged ? "converged" : "did not converge");
         report.fault = what;
         mDisplacement.assign(at(n), Vec3::Zero());
         report.totalSeconds = since(tStart);
