@@ -2,7 +2,10 @@
 // Benchmarks of `dgv bench <name>`: each prints "name: value unit" lines to `out`.
 // One file per benchmark: app/bench_<name>.cpp.
 
+#include "geom/lattice.hpp"
+
 #include <ostream>
+#include <vector>
 
 namespace dgv::bench {
 
@@ -17,6 +20,12 @@ double peakRssMiB();
 /// Starts a new peak-RSS measurement (writes 5 to /proc/self/clear_refs); cmd_bench calls it
 /// before each benchmark so that each reports its own peak.
 void resetPeakRss();
+
+/// A ball of material points: the grid points within `radius` voxels of the centre of an
+/// (ceil(2 radius) + 3)^3 grid, spacing h, centred on the world origin. (bench_common.cpp)
+Lattice ballLattice(Real radius, Real h = 1);
+/// The median of `v` (the mean of the middle two for an even count; v non-empty). (bench_common.cpp)
+double median(std::vector<double> v);
 
 void geometry(std::ostream& out, const BenchOptions& options);  // bench_geometry.cpp
 void voxelise(std::ostream& out, const BenchOptions& options);  // bench_voxelise.cpp

@@ -1,6 +1,8 @@
 // Helpers shared by the benchmarks.
 #include "app/bench.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -17,6 +19,24 @@ double peakRssMiB() {
 void resetPeakRss() {
     std::ofstream clear("/proc/self/clear_refs");
     if (clear) clear << "5";
+}
+
+Lattice ballLattice(Real radius, Real h) {
+    const int n = static_cast<int>(std::ceil(2 * radius)) + 3;
+    const Vec3i dims(n, n, n);
+    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
+    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i)
+                if ((Vec3(i, j, k) - c).norm() <= radius) mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
+    return buildLattice(-h * c, h, dims, mask);
+}
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 }  // namespace dgv::bench

@@ -35,19 +35,6 @@ struct Clock {
     double cpuSeconds() const { return double(std::clock() - cpu) / CLOCKS_PER_SEC; }
 };
 
-Lattice ball(Real radius) {
-    const int n = static_cast<int>(std::ceil(2 * radius)) + 3;
-    const Vec3i dims(n, n, n);
-    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= radius)
-                    mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    return buildLattice(-c, 1, dims, mask);
-}
-
 /// Twist about z (`twist` rad per voxel) and a bend: the deformed positions of the ball.
 std::vector<Vec3> deform(const Lattice& lat, Real twist, Real bend) {
     std::vector<Vec3> x = restPositions(lat);
@@ -68,7 +55,7 @@ struct Problem {
 
 /// Γ̄ from the deformed ball, its transports, the centre pin, frames along the tree.
 Problem makeProblem(Real radius, Real twist, Real bend) {
-    Problem pr{ball(radius), {}, {}, {}, {}};
+    Problem pr{ballLattice(radius), {}, {}, {}, {}};
     pr.truth = deform(pr.lat, twist, bend);
     GeometricState st;
     computeGeometricState(pr.lat, pr.truth, st);
@@ -84,11 +71,6 @@ Problem makeProblem(Real radius, Real twist, Real bend) {
     return pr;
 }
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
-
 constexpr double kCapSeconds = 60;
 
 }  // namespace
@@ -98,7 +80,7 @@ void reconstruct(std::ostream& out, const BenchOptions& options) {
     // ---- 1. production solver ------------------------------------------------------------
     {
         const Real radius = options.quick ? 10 : 32;
-        const Lattice lat = ball(radius);
+        const Lattice lat = ballLattice(radius);
         const std::vector<Vec3> truth = deform(lat, 0.02, 0.004);
         GeometricState st;
         computeGeometricState(lat, truth, st);

@@ -17,22 +17,6 @@
 
 namespace dgv::bench {
 
-namespace {
-
-Lattice stepBall(Real radius, Real h) {
-    const int n = static_cast<int>(std::ceil(2 * radius)) + 3;
-    const Vec3i dims(n, n, n);
-    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= radius) mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    return buildLattice(-h * c, h, dims, mask);
-}
-
-}  // namespace
-
 void step(std::ostream& out, const BenchOptions& options) {
     std::vector<Real> radii = {8, 16};
     if (!options.quick) radii.push_back(32);
@@ -40,7 +24,7 @@ void step(std::ostream& out, const BenchOptions& options) {
     std::vector<double> logN, logT;
     for (Real r : radii) {
         const Real h = 0.5 / r;  // a ball of radius 0.5 m
-        const Lattice lat = stepBall(r, h);
+        const Lattice lat = ballLattice(r, h);
         DeformableBody body(lat, restPositions(lat), DynamicsSettings{});
         ForceField f;
         ForceTerm t;

@@ -21,31 +21,10 @@
 
 namespace dgv::bench {
 
-namespace {
-
-Lattice vdbBall(Real radius) {
-    const int n = static_cast<int>(std::ceil(2 * radius)) + 3;
-    const Vec3i dims(n, n, n);
-    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= radius) mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    return buildLattice(-c, 1, dims, mask);
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
-
-}  // namespace
-
 void vdb(std::ostream& out, const BenchOptions& options) {
     const int repeats = std::max(1, options.repeats);
     const Real radius = options.quick ? 8 : 32;
-    const Lattice lat = vdbBall(radius);
+    const Lattice lat = ballLattice(radius);
     const LatticeCells cells = buildCells(lat);
     const Real twist = 0.6 / radius;  // radians per unit height: 0.6 rad from centre to pole
     std::vector<Vec3> x = restPositions(lat), v(x.size());

@@ -27,19 +27,6 @@ namespace dgv::bench {
 
 namespace {
 
-Lattice ball(Real radius) {
-    const int n = static_cast<int>(std::ceil(2 * radius)) + 3;
-    const Vec3i dims(n, n, n);
-    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= radius)
-                    mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    return buildLattice(-c, 1, dims, mask);
-}
-
 /// Dilation by 1 + s(u), s = 0.005 (1 + u_x) with u = x / radius (relative volume change
 /// about 3 s + 0.005 u_x), then a twist of 0.1 u_z rad about z, then noise of +-1e-3 voxel.
 std::vector<Vec3> deform(const Lattice& lat, Real radius) {
@@ -54,11 +41,6 @@ std::vector<Vec3> deform(const Lattice& lat, Real radius) {
         p = q + Vec3(noise(rng), noise(rng), noise(rng));
     }
     return x;
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
 }
 
 }  // namespace
@@ -77,7 +59,7 @@ void volume(std::ostream& out, const BenchOptions& options) {
     configs[1].settings.tolerance = 1e-5;
     std::vector<Real> logCells, logSeconds[kConfigs];
     for (Real radius : radii) {
-        const Lattice lat = ball(radius);
+        const Lattice lat = ballLattice(radius);
         const LatticeCells cells = buildCells(lat);
         const std::vector<Real> v0 = cellVolumes(cells, restPositions(lat));
         const std::vector<Vec3> start = deform(lat, radius);

@@ -6,6 +6,7 @@
 
 #include "base/errors.hpp"
 #include "dynamics/body.hpp"
+#include "dynamics/lattices.hpp"
 #include "geom/lattice.hpp"
 
 #include <Eigen/LU>
@@ -23,21 +24,9 @@ namespace {
 
 bool verbose() { return std::getenv("DGV_TEST_VERBOSE") != nullptr; }
 
-Lattice sphereLattice(int radius, Real h, const Vec3& origin) {
-    const int n = 2 * radius + 1;
-    const Vec3i dims(n, n, n);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if (Vec3(i - radius, j - radius, k - radius).norm() <= radius + 0.3)
-                    mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    return buildLattice(origin, h, dims, mask);
-}
+using test::sphereLattice;
 
-Lattice boxLattice(const Vec3i& dims, Real h) {
-    return buildLattice(Vec3(0.5, -1, 2), h, dims, std::vector<unsigned char>(static_cast<std::size_t>(dims.prod()), 1));
-}
+Lattice boxLattice(const Vec3i& dims, Real h) { return test::boxLattice(dims, h, Vec3(0.5, -1, 2)); }
 
 ForceField single(const ForceTerm& t) {
     ForceField f;

@@ -7,6 +7,7 @@
 #include "deform/connection_delta.hpp"
 #include "deform/volume.hpp"
 #include "dynamics/stepper.hpp"
+#include "dynamics/lattices.hpp"
 #include "geom/lattice.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -25,22 +26,12 @@ namespace {
 
 bool verbose() { return std::getenv("DGV_TEST_VERBOSE") != nullptr; }
 
+/// A ball of `radius` voxels centred at `centre`.
 Lattice ballLattice(int radius, Real h, const Vec3& centre) {
-    const int n = 2 * radius + 1;
-    const Vec3i dims(n, n, n);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if (Vec3(i - radius, j - radius, k - radius).norm() <= radius + 0.3)
-                    mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    return buildLattice(centre - Vec3::Constant(radius * h), h, dims, mask);
+    return test::sphereLattice(radius, h, centre - Vec3::Constant(radius * h));
 }
 
-Lattice boxLattice(const Vec3i& dims, Real h, const Vec3& origin) {
-    return buildLattice(origin, h, dims, std::vector<unsigned char>(static_cast<std::size_t>(dims.prod()), 1));
-}
-
+using test::boxLattice;
 
 ForceField vortexField(Real strength, const Vec3& centre, Real radius) {
     ForceTerm t;

@@ -1,0 +1,29 @@
+#pragma once
+// Lattices shared by the dynamics tests: a ball of material points and a full box.
+
+#include "geom/lattice.hpp"
+
+#include <vector>
+
+namespace dgv::test {
+
+/// The points within radius + 0.3 voxels of the centre of a (2 radius + 1)^3 grid with spacing h
+/// whose lowest corner is at `origin`.
+inline Lattice sphereLattice(int radius, Real h, const Vec3& origin) {
+    const int n = 2 * radius + 1;
+    const Vec3i dims(n, n, n);
+    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i)
+                if (Vec3(i - radius, j - radius, k - radius).norm() <= radius + 0.3)
+                    mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
+    return buildLattice(origin, h, dims, mask);
+}
+
+/// Every point of a dims grid with spacing h, lowest corner at `origin`.
+inline Lattice boxLattice(const Vec3i& dims, Real h, const Vec3& origin) {
+    return buildLattice(origin, h, dims, std::vector<unsigned char>(static_cast<std::size_t>(dims.prod()), 1));
+}
+
+}  // namespace dgv::test
