@@ -198,6 +198,7 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
     computeGeometricState(mLat, mX, mState);
     for (auto& g : mDGamma) g.assign(at(n), Mat3::Zero());
     mContact.assign(at(n), 0);
+    mContactDepth.assign(at(n), 0);
     mV.assign(at(n), Vec3::Zero());
 
     // The reconstruction's reference: pinned points, plus the point nearest the centre of each
@@ -427,23 +428,57 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
     // 5. Colliders.
     t = Clock::now();
     std::fill(mContact.begin(), mContact.end(), 0);
+    std::fill(mContactDepth.begin(), mContactDepth.end(), Real(0));
     if (!colliders.empty()) {
+        // The truth the contact set is measured against: φ < 0 for some collider, before the response.
+        std::vector<unsigned char> truth(at(n), 0);
         parallelFor(n, [&](Index p) {
             if (mPinned[at(p)]) return;
-            Vec3& x = xNew[at(p)];
             for (const Collider& col : colliders) {
                 Vec3 g;
-                const Real phi = col.evaluate(x, g);
-                if (!(phi < 0)) continue;
-                const Real gn = g.norm();
-                if (!(gn > 0)) continue;
-                const Vec3 nrm = g / gn;
-                x -= (phi / gn) * nrm;
-                const Vec3 s = x - mX[at(p)];
-                x -= col.friction * (s - s.dot(nrm) * nrm);
-                mContact[at(p)] = 1;
+                if (col.evaluate(xNew[at(p)], g) < 0) truth[at(p)] = 1;
             }
         });
+        // The response of one point to one collider: out along the signed distance's gradient,
+        // to the surface and beyond it by `restitution` × the depth (the normal reflection of an
+        // elastic contact; 0: onto the surface), the tangential step reduced by the friction
+        // (1: sticky, 0: slip).
+        auto respond = [&](Index p, const Collider& col) {
+            Vec3& x = xNew[at(p)];
+            Vec3 g;
+            const Real phi = col.evaluate(x, g);
+            if (!(phi < 0)) return;
+            const Real gn = g.norm();
+            if (!(gn > 0)) return;
+            const Vec3 nrm = g / gn;
+            x -= (1 + col.restitution) * (phi / gn) * nrm;
+            const Vec3 s = x - mX[at(p)];
+            x -= col.friction * (s - s.dot(nrm) * nrm);
+            mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phi / gn);
+        };
+        if (mDetector) {
+            // R per collider (eqs 90-91, collide/gln_network), then the response of its points.
+            std::vector<unsigned char> R;
+            for (std::size_t c = 0; c < colliders.size(); ++c) {
+                R.assign(at(n), 0);
+                mDetector(xNew, c, R);
+                parallelFor(n, [&](Index p) {
+                    if (!R[at(p)] || mPinned[at(p)]) return;
+                    mContact[at(p)] = 1;
+                    respond(p, colliders[c]);
+                });
+            }
+        } else {
+            parallelFor(n, [&](Index p) {
+                if (!truth[at(p)]) return;
+                mContact[at(p)] = 1;
+                for (const Collider& col : colliders) respond(p, col);
+            });
+        }
+        for (Index p = 0; p < n; ++p) {
+            report.contactTruth += truth[at(p)];
+            if (truth[at(p)] && mContact[at(p)]) ++report.contactTruePositive;
+        }
     }
     report.contacts = std::count(mContact.begin(), mContact.end(), 1);
     report.collideSeconds = since(t);
@@ -453,13 +488,23 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
     if (mSet.projectVolume && mCells.size() > 0) {
         std::vector<unsigned char> held(at(n));
         for (Index p = 0; p < n; ++p) held[at(p)] = (mPinned[at(p)] || mContact[at(p)]) ? 1 : 0;
-        VolumeProjectionSettings vs;
-        vs.tolerance = mSet.volumeTolerance;
-        vs.cache = &mVolumeCache;
+        const VolumeProjectionSettings vs = volumeSettings();  // also used by restoreState
         const VolumeProjectionReport vr = projectVolumes(mCells, mRestVolumes, held, xNew, vs);
         report.volumeIterations = vr.iterations;
         report.volumeConverged = vr.converged;
     }
+    if (!colliders.empty())
+        report.maxPenetration = parallelReduce(
+            n, Real(0),
+            [&](Real& acc, Index p) {
+                for (const Collider& col : colliders) {
+                    Vec3 g;
+                    const Real phi = col.evaluate(xNew[at(p)], g);
+                    const Real gn = g.norm();
+                    if (phi < 0 && gn > 0) acc = std::max(acc, -phi / gn);
+                }
+            },
+            [](Real a, Real b) { return std::max(a, b); });
     report.volumeSeconds = since(t);
 
     // 7. Body and flex after constraints (position-based), velocities, the new state.

@@ -36,6 +36,7 @@
 
 #include "base/types.hpp"
 #include "deform/volume.hpp"
+#include "dynamics/body_state.hpp"
 #include "dynamics/forces.hpp"
 #include "geom/geometric_state.hpp"
 #include "geom/lattice.hpp"
@@ -108,7 +109,8 @@ struct Collider {
     /// Distance: signed distance at x, gradient written to *gradient (unit near the surface).
     std::function<Real(const Vec3& x, Vec3* gradient)> distance;
     Real friction = 0.5;              ///< 0 slip .. 1 stick (fraction of the tangential step removed)
-    Real restitution = 0;             ///< 0..1, on the normal part of the body velocity
+    Real restitution = 0;             ///< 0..1: contact points go out beyond the surface by this × their
+                                      ///< depth (normal reflection), and on the normal part of the body velocity
 
     /// Signed distance and its gradient at x.
     Real evaluate(const Vec3& x, Vec3& gradient) const;
@@ -122,6 +124,10 @@ struct StepReport {
     Real totalVolumeDrift = 0;        ///< Σ V / Σ V0 − 1 after the step
     Index invertedCells = 0;          ///< cells with V <= 0
     Index contacts = 0;               ///< points in contact with a collider this step
+    // Contact detection against the truth (signed distance before the response; docs/gln.md):
+    Index contactTruth = 0;           ///< points with φ < 0 for some collider before the response
+    Index contactTruePositive = 0;    ///< of which in the contact set R
+    Real maxPenetration = 0;          ///< max over points and colliders of −φ after the step (world units; 0 if none)
     Index limitedPoints = 0;          ///< points whose δΓ the limiter scaled down
     int reconstructIterations = 0;    ///< CG iterations of the displacement solve
     int volumeIterations = 0;         ///< Gauss-Newton iterations of the volume projection
@@ -153,11 +159,23 @@ public:
     /// of the step).
     StepReport step(const ForceField& field, Real frame, Real dt, const std::vector<Collider>& colliders);
 
+    /// Contact detection other than "φ < 0" (sim wires the GLN network of collide/gln_network
+    /// here; dynamics cannot include collide): called per collider with the positions before the
+    /// response, it sets R (#P flags, cleared by the caller) to the contact set for that collider.
+    /// Points in R are pushed out where φ < 0 and held by the volume projection. Empty: the
+    /// signed-distance test.
+    using ContactDetector =
+        std::function<void(const std::vector<Vec3>& x, std::size_t collider, std::vector<unsigned char>& R)>;
+    void setContactDetector(ContactDetector detector) { mDetector = std::move(detector); }
+
     const Lattice& lattice() const { return mLat; }
     const std::vector<Vec3>& positions() const { return mX; }
     const std::vector<Vec3>& velocities() const { return mV; }  ///< over the last step, world units/s
     const GeometricState& state() const { return mState; }
     const std::vector<unsigned char>& contact() const { return mContact; }  ///< #P, last step
+    /// #P, last step: how deep each contact point was inside its collider before the response
+    /// (−φ, world units; 0 where not in contact). Drives the renderer's penetration ramp.
+    const std::vector<Real>& contactDepth() const { return mContactDepth; }
     const std::vector<unsigned char>& pinned() const { return mPinned; }
     const LatticeCells& cells() const { return mCells; }
     const std::vector<Real>& restVolumes() const { return mRestVolumes; }
@@ -174,8 +192,15 @@ public:
     /// Volume figures of the current positions.
     void volumeFigures(Real& maxCellError, Real& totalDrift, Index& inverted) const;
 
+    /// Checkpoints (body_state.hpp, body_state.cpp): everything that changes from step to step;
+    /// restoring it (sizes must fit: stateFits) continues bit-identically.
+    DeformableBodyState saveState() const;
+    bool stateFits(const DeformableBodyState& state) const;
+    void restoreState(DeformableBodyState state);
+
 private:
     void fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& affine) const;
+    VolumeProjectionSettings volumeSettings();  ///< the volume projection's settings (body_state.cpp)
 
     const Lattice& mLat;
     DynamicsSettings mSet;
@@ -196,6 +221,8 @@ private:
     bool mHavePrev = false;
     std::array<std::vector<Mat3>, 3> mDGamma;
     std::vector<unsigned char> mContact;
+    std::vector<Real> mContactDepth;
+    ContactDetector mDetector;
 
     Vec3 mC = Vec3::Zero(), mVc = Vec3::Zero();
     Mat3 mA = Mat3::Identity(), mAdot = Mat3::Zero();

@@ -285,6 +285,12 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         if (p != std::string::npos) msg = msg.substr(p);
         if (text.find_first_not_of(" \t\r\n") == std::string::npos) msg = "the file is empty";
         throw InputError(file, "", "malformed JSON: " + msg + " (" + lineColumn(text, e.byte > 0 ? e.byte - 1 : 0) + ")");
+    } catch (const Json::exception& e) {
+        // e.g. out_of_range.406, a number too large for a double ("1E1111111"; found by fuzz_scene)
+        std::string msg = e.what();
+        const auto p = msg.find("] ");
+        if (p != std::string::npos) msg = msg.substr(p + 2);
+        throw InputError(file, "", "malformed JSON: " + msg);
     }
 
     const fs::path sceneDir = fs::absolute(path).parent_path();
@@ -304,6 +310,11 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.fps = f.number("fps", 24, 0, 1000, true);
     });
     s.substeps = r.integer("substeps", 1, 1, 1000);
+    r.object("collision", [&](ObjectReader& c) {
+        const std::string detect = c.choice("detect", "sdf", {"sdf", "gln"});
+        s.collision.detect = detect == "gln" ? CollisionDesc::Detect::Gln : CollisionDesc::Detect::Sdf;
+        s.collision.coarseToFine = c.boolean("coarse_to_fine", false);
+    });
 
     r.array("objects", [&](ObjectReader& o, int i) {
         ObjectDesc d;
@@ -346,6 +357,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.material.density = m.number("density", d.material.density, 0, HUGE_VAL, true);
             d.material.damping = m.number("damping", d.material.damping, 0, 1e6);
             d.material.stiffness = m.number("stiffness", d.material.stiffness, 0, 1e8);
+            d.material.volumeTolerance = m.number("volume_tolerance", d.material.volumeTolerance, 1e-12, 0.1);
             d.material.maxDeltaGamma = m.number("max_delta_gamma", d.material.maxDeltaGamma, 0, 1, true);
         });
         d.velocity = o.vec3("velocity", d.velocity);
@@ -536,6 +548,19 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
         d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
         if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
+        g.object("contact", [&](ObjectReader& c) {
+            d.contactMode = c.choice("mode", "depth", {"off", "depth", "recent"});
+            d.contactDepthMax = c.number("depth_max", 0, 0, HUGE_VAL);
+            d.contactFadeFrames = c.integer("fade_frames", d.contactFadeFrames, 1, 100000);
+            d.contactLowSet = c.has("low");
+            d.contactLow = c.color("low", d.contactLow);
+            d.contactHigh = c.color("high", d.contactHigh);
+        });
+        g.object("overlays", [&](ObjectReader& o) {
+            d.overlayLattice = o.boolean("lattice", d.overlayLattice);
+            d.overlayLatticeColour = o.color("lattice_color", d.overlayLatticeColour);
+            d.overlayPointSize = o.number("point_size", d.overlayPointSize, 1, 64);
+        });
         if (static_cast<long long>(d.width) * d.supersample > 16384 || static_cast<long long>(d.height) * d.supersample > 16384)
             g.fail("supersample", "width and height times supersample must stay within 16384 (the GL limit)");
     });

@@ -38,6 +38,7 @@ struct MaterialDesc {
     Real density = 1000;        ///< kg/m^3
     Real damping = 1;           ///< 1/s: twist and flex stretch rates decay as exp(-damping t)
     Real stiffness = 0;         ///< 1/s^2: shape memory (0: goo; > 0: jelly that wobbles back)
+    Real volumeTolerance = 1e-5; ///< the volume projection's max |V/V0 − 1| per cell after a step
     Real maxDeltaGamma = 0.05;  ///< limiter on the connection change per step
 };
 
@@ -161,6 +162,17 @@ struct RenderDesc {
     bool ground = true;
     int bitDepth = 8;
     Real creaseDegrees = 40;   ///< normals split along edges sharper than this (180: smooth)
+    /// Contact highlighting (render.contact): the contact set R as a colour ramp on the surface.
+    std::string contactMode = "off";   ///< "off", "depth" (penetration) or "recent" (time since contact)
+    Real contactDepthMax = 0;          ///< depth at which the ramp reaches `high`; 0: the object's voxel size
+    int contactFadeFrames = 12;        ///< recent: frames over which the highlight fades
+    bool contactLowSet = false;        ///< whether `low` was given (recent: default the object's colour)
+    Vec3 contactLow = Vec3(1.0, 0.85, 0.1);    ///< linear RGB: shallow / fading
+    Vec3 contactHigh = Vec3(0.9, 0.05, 0.02);  ///< linear RGB: deep / in contact now
+    /// Overlays (render.overlays): lattice points as dots drawn over the surface.
+    bool overlayLattice = false;
+    Vec3 overlayLatticeColour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB
+    Real overlayPointSize = 3;         ///< dot diameter, output pixels
 };
 
 struct OutputDesc {
@@ -169,6 +181,13 @@ struct OutputDesc {
     Real vdbVoxelSize = 0;   ///< world grids' voxel size; 0: the objects' (smallest) voxel size
     bool vdbHalf = false;    ///< density, vel, contact as 16-bit floats
     bool vdbSurface = false; ///< also the `surface` level set of each deformed mesh
+};
+
+/// How contacts with colliders are found (docs/gln.md, "GLN networks and the contact set R").
+struct CollisionDesc {
+    enum class Detect { Sdf, Gln };
+    Detect detect = Detect::Sdf;   ///< sdf: every point with signed distance < 0; gln: the GLN network's R
+    bool coarseToFine = false;     ///< gln: coarse rings first, fine rings only inside linked ones
 };
 
 struct SceneDesc {
@@ -181,6 +200,7 @@ struct SceneDesc {
     std::vector<ObjectDesc> objects;
     std::vector<ForceDesc> forces;
     std::vector<ColliderDesc> colliders;
+    CollisionDesc collision;
     std::vector<CurveDesc> curves;   ///< closed curves (GLN figures); a scene has objects or curves
     GlnFigureDesc gln;
     CameraDesc camera;

@@ -5,6 +5,7 @@
 #include "base/check.hpp"
 #include "base/errors.hpp"
 #include "base/types.hpp"
+#include "collide/gln_network.hpp"
 #include "sim/forces_from_scene.hpp"
 
 #include <algorithm>
@@ -62,6 +63,7 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         set.density = o.material.density;
         set.damping = o.material.damping;
         set.shapeStiffness = o.material.stiffness;
+        set.volumeTolerance = o.material.volumeTolerance;
         set.maxDeltaGamma = o.material.maxDeltaGamma;
         std::vector<unsigned char> pinned(at(lat.size()), 0);
         if (o.pin.kind != PinDesc::Kind::None)
@@ -73,6 +75,28 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         }
         mBodies[i]->setRigidVelocity(o.velocity, o.spinDegrees * (M_PI / 180.0));
     }
+    // GLN contact detection (docs/gln.md): a network per body, R per collider and step.
+    mNetworks.resize(mBodies.size());
+    if (scene.collision.detect == CollisionDesc::Detect::Gln && !mColliders.empty())
+        for (std::size_t i = 0; i < mBodies.size(); ++i) {
+            if (!mBodies[i]) continue;
+            GlnNetworkSettings gs;
+            gs.coarseToFine = scene.collision.coarseToFine;
+            mNetworks[i] = std::make_unique<GlnNetwork>(*lattices[i], gs);
+            const GlnNetwork* net = mNetworks[i].get();
+            const std::vector<Collider>* cols = &mColliders;
+            mBodies[i]->setContactDetector(
+                [net, cols](const std::vector<Vec3>& x, std::size_t c, std::vector<unsigned char>& R) {
+                    const Collider& col = (*cols)[c];
+                    const SignedDistance phi = [&col](const Vec3& p, Vec3* g) {
+                        Vec3 gg;
+                        const Real v = col.evaluate(p, gg);
+                        if (g) *g = gg;
+                        return v;
+                    };
+                    net->contactSet(x, phi, R);
+                });
+        }
     mFrame = scene.frameStart;
 }
 
@@ -131,6 +155,10 @@ FrameStats Simulation::advanceTo(int frame) {
             s.maxCellVolumeError = std::max(s.maxCellVolumeError, r.maxCellVolumeError);
             s.invertedCells = std::max(s.invertedCells, r.invertedCells);
             s.limitedPoints += r.limitedPoints;
+            s.maxPenetration = std::max(s.maxPenetration, r.maxPenetration / mBodies[i]->lattice().spacing);
+            s.contactSetSize += r.contacts;
+            s.contactTruth += r.contactTruth;
+            s.contactTruePositive += r.contactTruePositive;
             if (first) s.lastStep = r;
             first = false;
         }
@@ -150,16 +178,53 @@ FrameStats Simulation::advanceTo(int frame) {
     return s;
 }
 
+std::vector<Simulation::ObjectState> Simulation::saveState() const {
+    std::vector<ObjectState> out(mBodies.size());
+    for (std::size_t i = 0; i < mBodies.size(); ++i)
+        if (mBodies[i]) {
+            out[i].present = true;
+            out[i].body = mBodies[i]->saveState();
+        }
+    return out;
+}
+
+bool Simulation::stateFits(const std::vector<ObjectState>& states) const {
+    if (states.size() != mBodies.size()) return false;
+    for (std::size_t i = 0; i < mBodies.size(); ++i) {
+        if (states[i].present != (mBodies[i] != nullptr)) return false;
+        if (mBodies[i] && !mBodies[i]->stateFits(states[i].body)) return false;
+    }
+    return true;
+}
+
+void Simulation::restoreState(int frame, std::vector<ObjectState> states) {
+    DGV_CHECK(stateFits(states));
+    DGV_CHECK(frame >= mScene.frameStart);
+    for (std::size_t i = 0; i < mBodies.size(); ++i)
+        if (mBodies[i]) mBodies[i]->restoreState(std::move(states[i].body));
+    mFrame = frame;
+}
+
 std::string statsCsvHeader() {
     return "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
-           "contacts,limited_points,step_ms";
+           "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall";
+}
+
+Real FrameStats::contactPrecision() const {
+    return contactSetSize > 0 ? Real(contactTruePositive) / Real(contactSetSize) : Real(NAN);
+}
+
+Real FrameStats::contactRecall() const {
+    return contactTruth > 0 ? Real(contactTruePositive) / Real(contactTruth) : Real(NAN);
 }
 
 std::string statsCsvRow(const FrameStats& s) {
     char buf[512];
-    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f", s.frame, s.time, s.kineticEnergy,
-                  s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift, static_cast<long long>(s.invertedCells),
-                  static_cast<long long>(s.contacts), static_cast<long long>(s.limitedPoints), s.stepMs);
+    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g", s.frame, s.time,
+                  s.kineticEnergy, s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift,
+                  static_cast<long long>(s.invertedCells), static_cast<long long>(s.contacts),
+                  static_cast<long long>(s.limitedPoints), s.stepMs, s.maxPenetration, s.contactPrecision(),
+                  s.contactRecall());
     return buf;
 }
 

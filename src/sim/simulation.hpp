@@ -31,8 +31,18 @@ struct FrameStats {
     Index contacts = 0;            ///< points in contact, end of the frame
     Index limitedPoints = 0;       ///< summed over the substeps
     double stepMs = 0;             ///< mean wall-clock time of one substep (all bodies), ms
+    // Contacts against the truth (signed distance < 0 before the response; docs/gln.md):
+    Real maxPenetration = 0;       ///< voxels: max over substeps, bodies, points of −φ/h after the step
+    Index contactSetSize = 0;      ///< Σ over substeps and bodies of |R|
+    Index contactTruth = 0;        ///< Σ of |{φ < 0}|
+    Index contactTruePositive = 0; ///< Σ of |R ∩ {φ < 0}|
+    /// |R ∩ T| / |R| and |R ∩ T| / |T| over the frame's substeps; NaN when the set is empty.
+    Real contactPrecision() const;
+    Real contactRecall() const;
     StepReport lastStep;           ///< the last substep's report of the first body (stage times)
 };
+
+class GlnNetwork;
 
 class Simulation {
 public:
@@ -56,6 +66,16 @@ public:
     FrameStats currentStats(int frame) const;
 
     int frame() const { return mFrame; }
+    /// State checkpoints (docs/robustness.md): one entry per scene object, `present` false for
+    /// objects without a body. restoreState makes `frame` the current frame; the states must fit
+    /// the bodies (stateFits), which the caller checks first.
+    struct ObjectState {
+        bool present = false;
+        DeformableBodyState body;
+    };
+    std::vector<ObjectState> saveState() const;
+    bool stateFits(const std::vector<ObjectState>& states) const;
+    void restoreState(int frame, std::vector<ObjectState> states);
     /// The body of scene object i, or nullptr.
     const DeformableBody* body(std::size_t object) const;
 
@@ -64,6 +84,7 @@ private:
     ForceField mField;
     std::vector<Collider> mColliders;
     std::vector<std::unique_ptr<DeformableBody>> mBodies;  ///< per object (null: static)
+    std::vector<std::unique_ptr<GlnNetwork>> mNetworks;     ///< per object, collision.detect = gln
     bool mActive = false;
     int mFrame = 0;
 };

@@ -77,14 +77,14 @@ TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cach
     std::string line;
     REQUIRE(std::getline(f, line));
     CHECK(line == "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
-                  "contacts,limited_points,step_ms");
+                  "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall");
     int rows = 0;
     while (std::getline(f, line)) {
         ++rows;
         std::vector<double> v;
         std::stringstream ss(line);
         for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-        REQUIRE(v.size() == 10);
+        REQUIRE(v.size() == 13);
         CHECK(v[0] == rows);           // frames 1..4
         CHECK(v[4] <= 1e-4);           // max_cell_volume_error
         CHECK(std::abs(v[5]) <= 1e-6); // total_volume_drift

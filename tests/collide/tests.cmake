@@ -1,1 +1,1 @@
-list(APPEND DGV_TEST_SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_gln_exact.cpp ${CMAKE_CURRENT_LIST_DIR}/test_gln_farfield.cpp ${CMAKE_CURRENT_LIST_DIR}/test_gln_seed.cpp ${CMAKE_CURRENT_LIST_DIR}/test_curve_distance.cpp ${CMAKE_CURRENT_LIST_DIR}/test_tube.cpp)
+list(APPEND DGV_TEST_SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_gln_exact.cpp ${CMAKE_CURRENT_LIST_DIR}/test_gln_farfield.cpp ${CMAKE_CURRENT_LIST_DIR}/test_gln_seed.cpp ${CMAKE_CURRENT_LIST_DIR}/test_curve_distance.cpp ${CMAKE_CURRENT_LIST_DIR}/test_tube.cpp ${CMAKE_CURRENT_LIST_DIR}/test_gln_network.cpp)
