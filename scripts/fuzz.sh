@@ -1,16 +1,17 @@
 #!/usr/bin/env bash
 # Fuzzes the parsers with libFuzzer (clang, AddressSanitizer + UndefinedBehaviorSanitizer):
-# the scene parser, the curve reader and mesh import. Installs clang and its runtime if missing,
-# builds in build-fuzz/, runs each target for SECONDS (default 60) from the seed corpus in
+# the scene parser, the curve reader, mesh import and the state checkpoint reader. Installs
+# clang and its runtime if missing, builds in build-fuzz/ (DGV_FUZZ_JOBS parallel jobs, default
+# all cores), runs each target for SECONDS (default 60) from the seed corpus in
 # tests/fuzz/corpus/<target>/ (copied: the committed corpus is never modified).
-# Usage: scripts/fuzz.sh [SECONDS] [TARGET ...]     TARGET: scene curve mesh (default: all)
+# Usage: scripts/fuzz.sh [SECONDS] [TARGET ...]     TARGET: scene curve mesh state (default: all)
 # Exit 0 when every target ran its time box clean; 1 with the crashing input's path otherwise.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -gt 0 ]] || targets=(scene curve mesh)
+[[ ${#targets[@]} -gt 0 ]] || targets=(scene curve mesh state)
 
 scripts/install-deps.sh --fuzz
 build=${DGV_FUZZ_BUILD_DIR:-build-fuzz}
@@ -19,7 +20,7 @@ if [[ ! -f "$build/CMakeCache.txt" ]]; then
     -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
     -DDGV_FUZZ=ON -DDGV_BUILD_TESTS=OFF -DDGV_SANITIZE=address,undefined,fuzzer-no-link
 fi
-cmake --build "$build" --parallel "$(nproc)" --target $(printf 'fuzz_%s ' "${targets[@]}")
+cmake --build "$build" --parallel "${DGV_FUZZ_JOBS:-$(nproc)}" --target $(printf 'fuzz_%s ' "${targets[@]}")
 
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1

@@ -12,6 +12,7 @@
 #include "io/scene_json.hpp"
 #include "render/camera.hpp"
 #include "render/renderer.hpp"
+#include "sim/contact_highlight.hpp"
 
 #include <unistd.h>
 
@@ -206,6 +207,35 @@ int runRender(const RenderOptions& options) {
     for (std::size_t i = 0; i < objects.size(); ++i) {
         frameScene.meshes[i].triangles = objects[i].restMesh.triangles;
         frameScene.meshes[i].colour = objects[i].color;
+        frameScene.meshes[i].creasePositions = objects[i].restMesh.vertices;  // same split for any --frames
+    }
+    // Contact highlighting (render.contact): the contact set R as a ramp on each moving surface.
+    const RenderDesc& rd = scene.render;
+    const ContactHighlightMode contactMode = rd.contactMode == "depth"    ? ContactHighlightMode::Depth
+                                             : rd.contactMode == "recent" ? ContactHighlightMode::Recent
+                                                                          : ContactHighlightMode::Off;
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+        ScalarRamp& ramp = frameScene.meshes[i].ramp;
+        ramp.high = rd.contactHigh;
+        if (contactMode == ContactHighlightMode::Recent) {
+            // From `high` (in R now) back to `low`, by default the surface's own colour.
+            ramp.low = rd.contactLowSet ? rd.contactLow : objects[i].color;
+            ramp.min = 0;
+            ramp.max = 1;
+        } else {
+            // Scalars are depth + edge in R and -edge outside (contactPointScalar).
+            const Real depthMax = rd.contactDepthMax > 0 ? rd.contactDepthMax : objects[i].lattice.spacing;
+            ramp.low = rd.contactLow;
+            ramp.min = 0.25 * depthMax;
+            ramp.max = 1.25 * depthMax;
+        }
+    }
+    if (rd.overlayLattice) {
+        frameScene.points.resize(objects.size());
+        for (PointSet& ps : frameScene.points) {
+            ps.colour = rd.overlayLatticeColour;
+            ps.size = rd.overlayPointSize;
+        }
     }
 
     PngWriteOptions png;
@@ -231,7 +261,6 @@ int runRender(const RenderOptions& options) {
             std::fprintf(stderr, "dgv: interrupted before frame %d; the frames written are complete\n", frame);
             return kExitInterrupted;
         }
-        dynamics.advanceTo(frame);
         if (Image done; options.resume && frameIsComplete(framePath(scene.output.dir, scene.name, frame), frame, rs.width,
                                                           rs.height, options.contactSheet ? &done : nullptr)) {
             writer.finish();  // keeps the progress lines in frame order
@@ -239,11 +268,22 @@ int runRender(const RenderOptions& options) {
             progress.step(framePath(scene.output.dir, scene.name, frame) + " (complete, kept)");
             if (options.contactSheet) thumbs.push_back(thumbnail(done, 320));
             ++kept;
-            continue;
+            continue;  // a kept frame needs no state
         }
+        // Frames were skipped (--frames A-B, --resume): restart from the latest state checkpoint
+        // up to this frame when there is one; otherwise (and from there) simulate frame by frame.
+        if (frame > dynamics.done() + 1) dynamics.restoreCheckpoint(frame);
+        dynamics.advanceTo(frame);
         for (std::size_t i = 0; i < objects.size(); ++i) {
             const DeformableBody* body = dynamics.body(i);
             deformVertices(objects[i].embedding, body ? body->state() : objects[i].state, frameScene.meshes[i].positions);
+            if (contactMode != ContactHighlightMode::Off && body)
+                pointScalarToVertices(objects[i].embedding,
+                                      contactPointScalar(contactMode, body->contact(), body->contactDepth(),
+                                                         dynamics.contactHistory(i).age(), rd.contactFadeFrames,
+                                                         frameScene.meshes[i].ramp.min),
+                                      frameScene.meshes[i].scalar);
+            if (rd.overlayLattice) frameScene.points[i].points = (body ? body->state() : objects[i].state).position;
         }
         Image image = renderer.render(frameScene, frameCamera(scene, bounds, frame, aspect));
         const std::string path = framePath(scene.output.dir, scene.name, frame);
@@ -260,6 +300,21 @@ int runRender(const RenderOptions& options) {
     if (!inFlight.empty()) progress.step(inFlight);
     progress.finish();
     if (cancelRequested()) return kExitInterrupted;
+    if (dynamics.done() < last) {
+        // --resume kept the last frames: stats.csv, the VDB cache and the checkpoints still reach
+        // the end of the range, as in an uninterrupted run.
+        dynamics.restoreCheckpoint(last);
+        if (dynamics.done() < last && (dynamics.active() || scene.output.vdb))
+            logInfo("simulating frames " + std::to_string(dynamics.done() + 1) + "-" + std::to_string(last) +
+                    " (kept) for stats.csv" + (scene.output.vdb ? " and the VDB cache" : ""));
+        while (dynamics.done() < last) {
+            if (cancelRequested()) {
+                std::fprintf(stderr, "dgv: interrupted; the files already written are complete\n");
+                return kExitInterrupted;
+            }
+            dynamics.advanceTo(std::max(dynamics.done() + 1, scene.frameStart));
+        }
+    }
     if (options.contactSheet) {
         Image gap(1, 1);
         for (int c = 0; c < 3; ++c)

@@ -10,6 +10,7 @@
 #include "io/atomic_file.hpp"
 #include "io/scene_json.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 
@@ -40,8 +41,20 @@ int runSimulate(const SimulateOptions& options) {
     logInfo("simulating frames " + std::to_string(scene.frameStart) + "-" + std::to_string(last) + " of '" + scene.name +
             "' (" + std::to_string(scene.substeps) + " substeps per frame) into " + scene.output.dir +
             (vdb ? " with the VDB cache" : ""));
-    Progress progress("simulate", last - scene.frameStart + 1, "frames");
-    for (int frame = scene.frameStart; frame <= last; ++frame) {
+    // State checkpoints (docs/robustness.md): --resume continues from the latest one up to the
+    // last frame; --frames A-B starts from the latest one up to A (frames before it are skipped).
+    int from = scene.frameStart;
+    if (options.resume || first > scene.frameStart) {
+        const int restored = dynamics.restoreCheckpoint(options.resume ? last : first);
+        if (restored >= 0) from = restored + 1;
+    }
+    if (options.resume)
+        logInfo("resume: " + (from > scene.frameStart ? "frames " + std::to_string(scene.frameStart) + "-" +
+                                                             std::to_string(from - 1) + " restored from the checkpoint"
+                                                       : std::string("no usable checkpoint")) +
+                ", simulating " + std::to_string(std::max(0, last - from + 1)) + " frames");
+    Progress progress("simulate", last - from + 1, "frames");
+    for (int frame = from; frame <= last; ++frame) {
         if (cancelRequested()) {
             progress.finish();
             std::fprintf(stderr, "dgv: interrupted before frame %d; the files written are complete\n", frame);

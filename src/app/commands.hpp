@@ -26,6 +26,7 @@ struct SimulateOptions {
     std::string frames;   ///< "A-B" or "N"; empty: the scene's range
     std::string outDir;
     bool vdb = false;
+    bool resume = false;  ///< continue from the last valid state checkpoint (docs/robustness.md)
 };
 int runSimulate(const SimulateOptions& options);
 

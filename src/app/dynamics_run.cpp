@@ -5,8 +5,10 @@
 #include "base/errors.hpp"
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"
+#include "io/state_file.hpp"
 #include "io/vdb_cache.hpp"
 
+#include <algorithm>
 #include <filesystem>
 
 namespace dgv::app {
@@ -44,6 +46,7 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
     for (const BuiltObject& o : objects) lattices.push_back(&o.lattice);
     mSim = std::make_unique<Simulation>(scene, lattices, writeVdb);
     mRows.push_back(statsCsvHeader());
+    if (mSim->active()) mSceneKey = sceneDynamicsKey(scene, lattices);
 }
 
 DynamicsRun::~DynamicsRun() = default;
@@ -53,9 +56,18 @@ const DeformableBody* DynamicsRun::body(std::size_t i) const { return mSim->acti
 void DynamicsRun::record(const FrameStats& s) {
     mLast = s;
     mDone = s.frame;
+    mContactHistory.resize(mObjects.size());
+    if (mSim->active())
+        for (std::size_t i = 0; i < mObjects.size(); ++i)
+            if (const DeformableBody* b = mSim->body(i)) mContactHistory[i].observe(b->contact());
     if (!mSim->active() && !mVdb) return;
     if (mVdb && s.frame >= mFirstWritten) writeVdb(s.frame);
     mRows.push_back(statsCsvRow(s));
+    writeStats();
+    if (mSim->active() && s.frame > mScene.frameStart) writeCheckpoint(s.frame);
+}
+
+void DynamicsRun::writeStats() {
     std::string text;
     for (const std::string& r : mRows) text += r + "\n";
     writeTextAtomically(fs::path(mScene.output.dir) / "stats.csv", text);
@@ -95,6 +107,75 @@ void DynamicsRun::writeVdb(int frame) {
     const fs::path dir = fs::path(mScene.output.dir) / "vdb";
     ensureDirectory(dir);
     (void)writeVdbFrame(vdbFramePath(dir, mScene.name, frame), objs, info, set);
+}
+
+void DynamicsRun::writeCheckpoint(int frame) {
+    StateCheckpoint c;
+    c.dgvVersion = DGV_VERSION_STRING;
+    c.sceneKey = mSceneKey;
+    c.frame = frame;
+    c.statsRows.assign(mRows.begin() + 1, mRows.end());
+    c.objects = mSim->saveState();
+    for (const ContactHistory& h : mContactHistory) c.contactAges.push_back(h.age());
+    const fs::path path = stateFilePath(mScene.output.dir, mScene.name, frame);
+    ensureDirectory(path.parent_path());
+    writeStateFile(path, c);
+}
+
+int DynamicsRun::restoreCheckpoint(int frame) {
+    if (!mSim->active()) return -1;
+    const int lowest = std::max(mDone + 1, mScene.frameStart + 1);
+    int stale = 0;
+    std::string firstStale;
+    auto skip = [&](const fs::path& path, const std::string& why) {
+        if (stale++ == 0) firstStale = path.string() + ": " + why;
+    };
+    int restored = -1;
+    for (int k = frame; k >= lowest && restored < 0; --k) {
+        const fs::path path = stateFilePath(mScene.output.dir, mScene.name, k);
+        std::error_code ec;
+        if (!fs::exists(path, ec)) continue;
+        StateCheckpoint c;
+        std::string problem = readStateFile(path, c);
+        if (problem.empty()) {
+            if (c.dgvVersion != DGV_VERSION_STRING) problem = "written by dgv " + c.dgvVersion;
+            else if (c.sceneKey != mSceneKey) problem = "of another scene or lattice";
+            else if (c.frame != k) problem = "holds frame " + std::to_string(c.frame);
+            else if (c.statsRows.size() != static_cast<std::size_t>(k - mScene.frameStart + 1) ||
+                     !mSim->stateFits(c.objects) || c.contactAges.size() != mObjects.size())
+                problem = "its arrays do not fit the scene's lattices";
+        }
+        if (!problem.empty()) {
+            skip(path, problem);
+            continue;
+        }
+        if (mVdb) {  // the frames skipped must have their VDB files (written atomically: complete)
+            int missing = -1;
+            for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && missing < 0; ++f)
+                if (!fs::exists(vdbFramePath(fs::path(mScene.output.dir) / "vdb", mScene.name, f), ec)) missing = f;
+            if (missing >= 0) {
+                logInfo(path.string() + ": not used: the VDB file of frame " + std::to_string(missing) + " is missing");
+                continue;
+            }
+        }
+        mSim->restoreState(k, std::move(c.objects));
+        mContactHistory.assign(mObjects.size(), ContactHistory());
+        for (std::size_t i = 0; i < mObjects.size(); ++i) mContactHistory[i].restore(std::move(c.contactAges[i]));
+        mRows.assign(1, statsCsvHeader());
+        mRows.insert(mRows.end(), c.statsRows.begin(), c.statsRows.end());
+        writeStats();
+        mLast = FrameStats();
+        mLast.frame = k;
+        mDone = k;
+        restored = k;
+    }
+    if (stale > 0)
+        logWarning("ignored " + std::to_string(stale) + " state checkpoint" + (stale > 1 ? "s" : "") + " (" + firstStale +
+                   (stale > 1 ? "; ..." : "") + "); they are rewritten as the frames are simulated");
+    if (restored >= 0)
+        logInfo("resuming the simulation from frame " + std::to_string(restored) + " (" +
+                stateFilePath(mScene.output.dir, mScene.name, restored).string() + ")");
+    return restored;
 }
 
 void DynamicsRun::advanceTo(int frame) {

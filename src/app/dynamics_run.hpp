@@ -4,8 +4,10 @@
 // after every frame and, when the scene asks for it, the frame's VDB cache.
 
 #include "app/scene_build.hpp"
+#include "sim/contact_highlight.hpp"
 #include "sim/simulation.hpp"
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,6 +27,15 @@ public:
     /// Simulates up to `frame` (frames.start: the initial state), writing each new frame's
     /// stats row and VDB file. Frames must not go backwards.
     void advanceTo(int frame);
+    /// State checkpoints (docs/robustness.md, "State checkpoints"); a moving scene writes one after
+    /// each simulated frame after frames.start. restoreCheckpoint continues the simulation from the
+    /// latest usable checkpoint of a frame in (last frame recorded, `frame`] and rewrites stats.csv
+    /// from it: returns that frame, or -1 (nothing changed) when there is none. A checkpoint of
+    /// another scene, lattice or dgv version, or a truncated or corrupt one, is skipped with a
+    /// warning; with the VDB cache on, so is one whose frames' VDB files are not all on disk.
+    int restoreCheckpoint(int frame);
+    /// The last frame simulated or restored (-1: none yet).
+    int done() const { return mDone; }
     /// The moving body of object i, or nullptr (render it at rest).
     const DeformableBody* body(std::size_t i) const;
     bool active() const { return mSim->active(); }
@@ -33,10 +44,15 @@ public:
     /// The rows written so far (header first).
     const std::vector<std::string>& statsRows() const { return mRows; }
     const FrameStats& lastStats() const { return mLast; }
+    /// Object i's per-point history of the contact set R (frames since each point was last in
+    /// R), updated on every simulated frame; empty for objects that do not move.
+    const ContactHistory& contactHistory(std::size_t i) const { return mContactHistory[i]; }
 
 private:
     void record(const FrameStats& s);
     void writeVdb(int frame);
+    void writeCheckpoint(int frame);
+    void writeStats();
 
     const SceneDesc& mScene;
     const std::vector<BuiltObject>& mObjects;
@@ -46,6 +62,8 @@ private:
     int mFirstWritten = 0;  ///< VDB frames before this one are simulated, not written
     std::vector<std::string> mRows;
     FrameStats mLast;
+    std::uint64_t mSceneKey = 0;  ///< what checkpoints must match (io/state_file.hpp)
+    std::vector<ContactHistory> mContactHistory;  ///< per object
 };
 
 }  // namespace dgv::app

@@ -87,7 +87,8 @@ int main(int argc, char** argv) {
     cRender->add_flag("--contact-sheet", render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
     cRender->add_flag("--movie", render.movie, "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");
     cRender->add_flag("--resume", render.resume,
-                      "Keep frames already complete on disk (a readable PNG of that frame); render the rest");
+                      "Keep frames already complete on disk (a readable PNG of that frame); render the rest, "
+                      "the simulation restarting from its last valid state checkpoint");
     cRender->footer(kExitCodes);
 
     app::SimulateOptions simulate;
@@ -96,6 +97,8 @@ int main(int argc, char** argv) {
     cSim->add_option("--frames", simulate.frames, "Last frame N, or A-B (frames before A are simulated, not written)");
     cSim->add_option("--out", simulate.outDir, "Output folder (default: the scene's output.dir)");
     cSim->add_flag("--vdb", simulate.vdb, "Write the VDB cache (also on when the scene sets output.vdb)");
+    cSim->add_flag("--resume", simulate.resume,
+                   "Continue from the last valid state checkpoint (<out>/state/<name>.####.dgvstate)");
     cSim->footer(kExitCodes);
 
     app::GlnOptions gln;

@@ -283,6 +283,8 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
             cache->mg.reset();
             cache->cellOfRow = cellOfRow;
             cache->parity = settings.parityAggregates;
+            settings.cache->builtFromPositions.clear();
+            settings.cache->builtFromPinned.clear();
         }
     }
     MultigridSettings mgSettings;
@@ -317,6 +319,8 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
             if (cache) {
                 cache->mg = std::move(ownMg);
                 mg = cache->mg.get();
+                settings.cache->builtFromPositions = start;  // what the hierarchy was built from
+                settings.cache->builtFromPinned = pinned;
             } else {
                 mg = ownMg.get();
             }
@@ -372,6 +376,22 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
         [&](Real& acc, Index p) { acc = std::max(acc, (positions[at(p)] - start[at(p)]).norm()); },
         [](Real a, Real b) { return std::max(a, b); });
     return report;
+}
+
+void rebuildVolumeProjectionCache(const LatticeCells& cells, const std::vector<Real>& restVolumes,
+                                  const VolumeProjectionSettings& settings) {
+    DGV_CHECK(settings.cache != nullptr);
+    VolumeProjectionCache& cache = *settings.cache;
+    cache.impl.reset();
+    if (cache.builtFromPositions.empty()) {
+        cache.builtFromPinned.clear();
+        return;
+    }
+    std::vector<Vec3> positions = std::move(cache.builtFromPositions);
+    const std::vector<unsigned char> pinned = std::move(cache.builtFromPinned);
+    cache.builtFromPositions.clear();
+    cache.builtFromPinned.clear();
+    (void)projectVolumes(cells, restVolumes, pinned, positions, settings);
 }
 
 }  // namespace dgv

@@ -53,6 +53,11 @@ Real totalVolume(const LatticeCells& cells, const std::vector<Vec3>& positions);
 struct VolumeProjectionCache {
     struct Impl;                 ///< internal (volume.cpp)
     std::shared_ptr<Impl> impl;  ///< empty until a call fills it
+    /// The input of the call that built the multigrid held now (its positions on entry and its
+    /// pinned flags; empty while none is held). The hierarchy is a function of these alone, so a
+    /// state checkpoint saves them and rebuildVolumeProjectionCache makes the same one again.
+    std::vector<Vec3> builtFromPositions;
+    std::vector<unsigned char> builtFromPinned;
 };
 
 struct VolumeProjectionSettings {
@@ -113,5 +118,12 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
                                       const std::vector<unsigned char>& pinned,
                                       std::vector<Vec3>& positions,
                                       const VolumeProjectionSettings& settings = {});
+
+/// Rebuilds `*settings.cache`'s multigrid from its builtFrom* inputs (a restored checkpoint):
+/// one projectVolumes call on a copy of them with these settings (the caller's usual ones), so
+/// the hierarchy is the same, bit for bit, as the one built first. Empties the cache when they
+/// are empty.
+void rebuildVolumeProjectionCache(const LatticeCells& cells, const std::vector<Real>& restVolumes,
+                                  const VolumeProjectionSettings& settings);
 
 }  // namespace dgv

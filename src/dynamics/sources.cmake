@@ -3,4 +3,5 @@ list(APPEND DGV_DYNAMICS_SOURCES
   dynamics/forces.cpp
   dynamics/body.cpp
   dynamics/stepper.cpp
+  dynamics/body_state.cpp
 )

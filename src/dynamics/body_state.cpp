@@ -1,0 +1,80 @@
+// Saving and restoring the dynamic state of a body (body_state.hpp).
+
+#include "dynamics/body_state.hpp"
+
+#include "base/check.hpp"
+#include "dynamics/stepper.hpp"
+#include "solve/sparse_solve.hpp"
+
+#include <utility>
+
+namespace dgv {
+
+VolumeProjectionSettings DeformableBody::volumeSettings() {
+    VolumeProjectionSettings vs;
+    vs.tolerance = mSet.volumeTolerance;
+    vs.cache = &mVolumeCache;
+    return vs;
+}
+
+DeformableBodyState DeformableBody::saveState() const {
+    DeformableBodyState s;
+    s.positions = mX;
+    s.velocities = mV;
+    s.tangentPrev = mTangentPrev;
+    s.havePrev = mHavePrev;
+    s.deltaGamma = mDGamma;
+    s.contact = mContact;
+    s.contactDepth = mContactDepth;
+    s.centre = mC;
+    s.centreVelocity = mVc;
+    s.flex = mA;
+    s.flexVelocity = mAdot;
+    s.halfStep = mHalfStep;
+    s.displacement = mDisplacement;
+    s.volumeCachePositions = mVolumeCache.builtFromPositions;
+    s.volumeCachePinned = mVolumeCache.builtFromPinned;
+    return s;
+}
+
+bool DeformableBody::stateFits(const DeformableBodyState& s) const {
+    const std::size_t n = static_cast<std::size_t>(mLat.size());
+    bool ok = s.positions.size() == n && s.velocities.size() == n && s.contact.size() == n &&
+              s.contactDepth.size() == n && s.displacement.size() == n &&
+              (s.volumeCachePositions.empty() || s.volumeCachePositions.size() == n) &&
+              (s.volumeCachePinned.empty() || s.volumeCachePinned.size() == n) &&
+              (!s.volumeCachePinned.empty() ? !s.volumeCachePositions.empty() : true);
+    for (std::size_t a = 0; a < 3; ++a) {
+        ok = ok && s.deltaGamma[a].size() == n;
+        ok = ok && (s.tangentPrev[a].size() == n || (!s.havePrev && s.tangentPrev[a].empty()));
+    }
+    return ok;
+}
+
+void DeformableBody::restoreState(DeformableBodyState s) {
+    DGV_CHECK(stateFits(s));
+    mX = std::move(s.positions);
+    mV = std::move(s.velocities);
+    mTangentPrev = std::move(s.tangentPrev);
+    mHavePrev = s.havePrev;
+    mDGamma = std::move(s.deltaGamma);
+    mContact = std::move(s.contact);
+    mContactDepth = std::move(s.contactDepth);
+    mC = s.centre;
+    mVc = s.centreVelocity;
+    mA = s.flex;
+    mAdot = s.flexVelocity;
+    mHalfStep = s.halfStep;
+    mDisplacement = std::move(s.displacement);
+    // The geometric state is a function of the positions (the step ends by computing it so).
+    computeGeometricState(mLat, mX, mState);
+    mVolumeCache.builtFromPositions = std::move(s.volumeCachePositions);
+    mVolumeCache.builtFromPinned = std::move(s.volumeCachePinned);
+    if (mSet.projectVolume && mCells.size() > 0) {
+        rebuildVolumeProjectionCache(mCells, mRestVolumes, volumeSettings());
+    } else {
+        mVolumeCache = VolumeProjectionCache();
+    }
+}
+
+}  // namespace dgv

@@ -1,0 +1,304 @@
+// State checkpoints on disk (state_file.hpp).
+
+#include "io/state_file.hpp"
+
+#include "base/errors.hpp"
+#include "io/atomic_file.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <type_traits>
+
+namespace dgv {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kMagic[8] = {'D', 'G', 'V', 'S', 'T', 'A', 'T', 'E'};
+constexpr std::uint32_t kByteOrder = 0x01020304u;
+
+/// FNV-1a, 64 bit.
+struct Fnv {
+    std::uint64_t h = 1469598103934665603ull;
+    void add(const void* data, std::size_t n) {
+        const auto* p = static_cast<const unsigned char*>(data);
+        for (std::size_t i = 0; i < n; ++i) {
+            h ^= p[i];
+            h *= 1099511628211ull;
+        }
+    }
+    template <typename T>
+    void value(const T& v) {
+        add(&v, sizeof v);
+    }
+    void text(const std::string& s) {
+        value(static_cast<std::uint64_t>(s.size()));
+        add(s.data(), s.size());
+    }
+};
+
+class Writer {
+public:
+    std::string bytes;
+    template <typename T>
+    void value(const T& v) {
+        bytes.append(reinterpret_cast<const char*>(static_cast<const void*>(&v)), sizeof v);
+    }
+    void text(const std::string& s) {
+        value(static_cast<std::uint32_t>(s.size()));
+        bytes += s;
+    }
+    template <typename T>
+    void array(const std::vector<T>& v) {
+        value(static_cast<std::uint64_t>(v.size()));
+        if (!v.empty()) bytes.append(reinterpret_cast<const char*>(static_cast<const void*>(v.data())), v.size() * sizeof(T));
+    }
+};
+
+/// Bounds-checked reading; `ok` turns false on the first read past the end.
+class Reader {
+public:
+    Reader(const char* data, std::size_t size) : mData(data), mSize(size) {}
+    bool ok = true;
+    template <typename T>
+    T value() {
+        T v{};
+        if (!ok || mSize - mPos < sizeof v) {
+            ok = false;
+            return v;
+        }
+        std::memcpy(static_cast<void*>(&v), mData + mPos, sizeof v);
+        mPos += sizeof v;
+        return v;
+    }
+    std::string text() {
+        const auto n = value<std::uint32_t>();
+        if (!ok || mSize - mPos < n) {
+            ok = false;
+            return {};
+        }
+        std::string s(mData + mPos, n);
+        mPos += n;
+        return s;
+    }
+    template <typename T>
+    void array(std::vector<T>& v) {
+        const auto n = value<std::uint64_t>();
+        if (!ok || n > (mSize - mPos) / sizeof(T)) {
+            ok = false;
+            return;
+        }
+        v.resize(static_cast<std::size_t>(n));
+        if (n > 0) std::memcpy(static_cast<void*>(v.data()), mData + mPos, static_cast<std::size_t>(n) * sizeof(T));
+        mPos += static_cast<std::size_t>(n) * sizeof(T);
+    }
+    std::size_t position() const { return mPos; }
+    bool atEnd() const { return mPos == mSize; }
+
+private:
+    const char* mData;
+    std::size_t mSize;
+    std::size_t mPos = 0;
+};
+
+// Eigen's fixed-size types are plain arrays of their scalars (copied with memcpy here).
+static_assert(sizeof(Vec3) == 3 * sizeof(Real) && sizeof(Mat3) == 9 * sizeof(Real) && sizeof(Vec3i) == 3 * sizeof(int));
+
+void writeBody(Writer& w, const DeformableBodyState& s) {
+    w.value(static_cast<std::uint64_t>(s.positions.size()));
+    w.array(s.positions);
+    w.array(s.velocities);
+    for (const auto& t : s.tangentPrev) w.array(t);
+    w.value(static_cast<std::uint8_t>(s.havePrev));
+    for (const auto& g : s.deltaGamma) w.array(g);
+    w.array(s.contact);
+    w.array(s.contactDepth);
+    w.value(s.centre);
+    w.value(s.centreVelocity);
+    w.value(s.flex);
+    w.value(s.flexVelocity);
+    w.value(static_cast<std::uint8_t>(s.halfStep));
+    w.array(s.displacement);
+    w.array(s.volumeCachePositions);
+    w.array(s.volumeCachePinned);
+}
+
+/// A bool stored as one byte: 0 or 1, anything else is malformed.
+bool readBool(Reader& r) {
+    const auto b = r.value<std::uint8_t>();
+    if (b > 1) r.ok = false;
+    return b == 1;
+}
+
+void readBody(Reader& r, DeformableBodyState& s) {
+    const auto points = r.value<std::uint64_t>();  // #P (the arrays carry their own counts too)
+    r.array(s.positions);
+    if (points != s.positions.size()) r.ok = false;
+    r.array(s.velocities);
+    for (auto& t : s.tangentPrev) r.array(t);
+    s.havePrev = readBool(r);
+    for (auto& g : s.deltaGamma) r.array(g);
+    r.array(s.contact);
+    r.array(s.contactDepth);
+    s.centre = r.value<Vec3>();
+    s.centreVelocity = r.value<Vec3>();
+    s.flex = r.value<Mat3>();
+    s.flexVelocity = r.value<Mat3>();
+    s.halfStep = readBool(r);
+    r.array(s.displacement);
+    r.array(s.volumeCachePositions);
+    r.array(s.volumeCachePinned);
+}
+
+std::uint64_t checksum(const char* data, std::size_t n) {
+    Fnv f;
+    f.add(data, n);
+    return f.h;
+}
+
+std::size_t headerSize(const std::string& version) {
+    return sizeof kMagic + 3 * sizeof(std::uint32_t) + sizeof(std::uint32_t) + version.size() + sizeof(std::uint64_t) +
+           sizeof(std::int32_t) + 2 * sizeof(std::uint64_t);
+}
+
+}  // namespace
+
+fs::path stateFilePath(const fs::path& outDir, const std::string& name, int frame) {
+    char num[32];
+    std::snprintf(num, sizeof num, "%04d", frame);
+    return outDir / "state" / (name + "." + num + ".dgvstate");
+}
+
+std::string serializeState(const StateCheckpoint& c) {
+    Writer payload;
+    payload.value(static_cast<std::uint32_t>(c.statsRows.size()));
+    for (const std::string& row : c.statsRows) payload.text(row);
+    payload.value(static_cast<std::uint32_t>(c.objects.size()));
+    for (const Simulation::ObjectState& o : c.objects) {
+        payload.value(static_cast<std::uint8_t>(o.present));
+        if (o.present) writeBody(payload, o.body);
+    }
+    payload.value(static_cast<std::uint32_t>(c.contactAges.size()));
+    for (const std::vector<int>& a : c.contactAges) payload.array(a);
+
+    Writer file;
+    file.bytes.reserve(headerSize(c.dgvVersion) + payload.bytes.size());
+    file.bytes.append(kMagic, sizeof kMagic);
+    file.value(kStateFormatVersion);
+    file.value(kByteOrder);
+    file.value(static_cast<std::uint32_t>(sizeof(Real)));
+    file.text(c.dgvVersion);
+    file.value(c.sceneKey);
+    file.value(static_cast<std::int32_t>(c.frame));
+    file.value(static_cast<std::uint64_t>(payload.bytes.size()));
+    file.value(checksum(payload.bytes.data(), payload.bytes.size()));
+    file.bytes += payload.bytes;
+    return std::move(file.bytes);
+}
+
+void writeStateFile(const fs::path& path, const StateCheckpoint& c) { writeTextAtomically(path, serializeState(c)); }
+
+std::string readStateFile(const fs::path& path, StateCheckpoint& out) {
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) return fs::exists(path, ec) ? "not a regular file" : "no such file";
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return "cannot open it";
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) return "cannot read it";
+    return parseState(bytes, out);
+}
+
+std::string parseState(const std::string& bytes, StateCheckpoint& out) {
+    Reader h(bytes.data(), bytes.size());
+    if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+        return "not a dgv state file";
+    for (std::size_t i = 0; i < sizeof kMagic; ++i) (void)h.value<char>();
+    const auto version = h.value<std::uint32_t>();
+    const auto order = h.value<std::uint32_t>();
+    const auto realSize = h.value<std::uint32_t>();
+    if (!h.ok) return "truncated: " + std::to_string(bytes.size()) + " bytes";
+    if (version != kStateFormatVersion)
+        return "format version " + std::to_string(version) + ", this dgv reads " + std::to_string(kStateFormatVersion);
+    if (order != kByteOrder || realSize != sizeof(Real)) return "written on a machine with another byte order or real size";
+    out.dgvVersion = h.text();
+    out.sceneKey = h.value<std::uint64_t>();
+    out.frame = h.value<std::int32_t>();
+    const auto payloadBytes = h.value<std::uint64_t>();
+    const auto sum = h.value<std::uint64_t>();
+    if (!h.ok) return "truncated: " + std::to_string(bytes.size()) + " bytes";
+    const std::size_t start = h.position();
+    if (bytes.size() - start != payloadBytes)
+        return (bytes.size() - start < payloadBytes ? "truncated: " : "trailing bytes: ") + std::to_string(bytes.size()) +
+               " of " + std::to_string(start + payloadBytes) + " bytes";
+    if (checksum(bytes.data() + start, payloadBytes) != sum) return "checksum mismatch (corrupt)";
+
+    Reader r(bytes.data() + start, static_cast<std::size_t>(payloadBytes));
+    const auto rows = r.value<std::uint32_t>();
+    out.statsRows.clear();
+    for (std::uint32_t i = 0; i < rows && r.ok; ++i) out.statsRows.push_back(r.text());
+    const auto objects = r.value<std::uint32_t>();
+    out.objects.clear();
+    for (std::uint32_t i = 0; i < objects && r.ok; ++i) {
+        Simulation::ObjectState o;
+        o.present = readBool(r);
+        if (o.present) readBody(r, o.body);
+        out.objects.push_back(std::move(o));
+    }
+    const auto histories = r.value<std::uint32_t>();
+    out.contactAges.clear();
+    for (std::uint32_t i = 0; i < histories && r.ok; ++i) {
+        out.contactAges.emplace_back();
+        r.array(out.contactAges.back());
+    }
+    if (!r.ok || !r.atEnd()) return "malformed payload";
+    return {};
+}
+
+namespace {
+
+/// The scene file's JSON without what cannot change the dynamics, in a canonical form.
+std::string dynamicsJson(const SceneDesc& scene) {
+    std::ifstream in(scene.path, std::ios::binary);
+    if (!in) throw InputError(scene.path, "", "cannot read the scene file again (for the state checkpoints)");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) throw InputError(scene.path, "", "the scene file changed while dgv ran");
+    for (const char* key : {"name", "camera", "render", "output", "curves", "gln"}) j.erase(key);
+    if (j.contains("frames") && j["frames"].is_object()) j["frames"].erase("end");
+    if (j.contains("objects") && j["objects"].is_array())
+        for (auto& o : j["objects"])
+            if (o.is_object()) o.erase("color");
+    return j.dump();  // keys sorted (std::map), no white space
+}
+
+}  // namespace
+
+std::uint64_t sceneDynamicsKey(const SceneDesc& scene, const std::vector<const Lattice*>& lattices) {
+    Fnv f;
+    f.text(dynamicsJson(scene));
+    for (const ColliderDesc& c : scene.colliders) {
+        if (c.meshPath.empty()) continue;
+        std::ifstream in(c.meshPath, std::ios::binary);
+        f.text(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
+    }
+    f.value(static_cast<std::uint64_t>(lattices.size()));
+    for (const Lattice* lat : lattices) {
+        if (!lat) {
+            f.value(std::int64_t(-1));
+            continue;
+        }
+        f.value(static_cast<std::int64_t>(lat->size()));
+        f.value(lat->originWorld);
+        f.value(lat->spacing);
+        f.value(lat->dims);
+        f.add(lat->coords.data(), lat->coords.size() * sizeof(Vec3i));
+    }
+    return f.h;
+}
+
+}  // namespace dgv
