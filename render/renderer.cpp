@@ -37,6 +37,16 @@ double encodeSrgb(double x) {
     return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
 }
 
+/// IEEE half (binary16) bits -> float (subnormals, infinities and NaN included).
+float halfToFloat(std::uint16_t h) {
+    const int sign = h >> 15, exponent = (h >> 10) & 0x1f, mantissa = h & 0x3ff;
+    float v;
+    if (exponent == 0) v = std::ldexp(static_cast<float>(mantissa), -24);
+    else if (exponent == 31) v = mantissa ? std::numeric_limits<float>::quiet_NaN() : std::numeric_limits<float>::infinity();
+    else v = std::ldexp(static_cast<float>(mantissa | 0x400), exponent - 25);
+    return sign ? -v : v;
+}
+
 bool hasShaders(const fs::path& dir) {
     std::error_code ec;
     return fs::is_regular_file(dir / "mesh.vert", ec) && fs::is_regular_file(dir / "mesh.frag", ec);
@@ -265,12 +275,15 @@ std::string findShaderDir() {
 struct Renderer::Impl {
     RenderSettings settings;
     GlContext context;
-    ShaderProgram meshProgram, groundProgram, groundPlainProgram, shadowProgram, resolveProgram;
+    ShaderProgram meshProgram, groundProgram, groundPlainProgram, shadowProgram, resolveProgram, overlayProgram;
 
     // Supersampled target: RGBA16F colour texture + 24-bit depth renderbuffer.
     GLuint sceneFbo = 0, sceneColour = 0, sceneDepth = 0;
-    // Final target: RGBA16 (unorm) at output size, read back as 16-bit samples.
+    // Final target: RGBA16F at output size (linear, composited), read back as half floats and
+    // encoded to 16-bit sRGB on the CPU through exact lookup tables.
     GLuint outFbo = 0, outColour = 0;
+    // The ground at output size (premultiplied linear), composited under the meshes.
+    GLuint groundFbo = 0, groundColour = 0;
     int targetWidth = 0, targetHeight = 0, targetFactor = 0;
     // Key-light shadow map.
     GLuint shadowFbo = 0, shadowDepth = 0;
@@ -281,6 +294,19 @@ struct Renderer::Impl {
     GLuint emptyVao = 0;
     std::vector<MeshSlot> meshes;
     std::vector<std::uint16_t> readback;
+    // Half-float bits -> 16-bit code: sRGB-encoded colour, linear alpha (exact, in double).
+    std::vector<std::uint16_t> srgbOfHalf, unormOfHalf;
+    // Overlays: screen-space quads (clip xyzw, corner uv) rebuilt every frame.
+    GLuint overlayVao = 0, overlayVbo = 0;
+    std::size_t overlayCapacity = 0;  // bytes
+    std::vector<float> overlayData;
+    struct OverlayDraw {
+        GLint first = 0;
+        GLsizei count = 0;
+        Vec3 colour;
+        bool round = false, onTop = false;
+    };
+    std::vector<OverlayDraw> overlayDraws;
     Renderer::Timings timings;
 
     explicit Impl(const RenderSettings& s) : settings(s), context(s.backend) {
@@ -292,6 +318,26 @@ struct Renderer::Impl {
         shadowProgram = ShaderProgram(dir, "shadow.vert", "shadow.frag");
         resolveProgram = ShaderProgram(dir, "resolve.vert", "resolve.frag", "",
                                        "#define DGV_FACTOR " + std::to_string(s.supersample) + "\n");
+        overlayProgram = ShaderProgram(dir, "overlay.vert", "overlay.frag");
+        glGenVertexArrays(1, &overlayVao);
+        glGenBuffers(1, &overlayVbo);
+        glBindVertexArray(overlayVao);
+        glBindBuffer(GL_ARRAY_BUFFER, overlayVbo);
+        glEnableVertexAttribArray(0);
+        glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+        glEnableVertexAttribArray(1);
+        glVertexAttribPointer(1, 2, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                              reinterpret_cast<const void*>(4 * sizeof(float)));
+        glBindVertexArray(0);
+
+        srgbOfHalf.resize(65536);
+        unormOfHalf.resize(65536);
+        for (std::uint32_t hbits = 0; hbits < 65536; ++hbits) {
+            const double v = halfToFloat(static_cast<std::uint16_t>(hbits));
+            const double c = std::isnan(v) ? 0.0 : std::clamp(v, 0.0, 1.0);  // clamps +-inf too
+            srgbOfHalf[hbits] = static_cast<std::uint16_t>(std::lround(65535.0 * encodeSrgb(c)));
+            unormOfHalf[hbits] = static_cast<std::uint16_t>(std::lround(65535.0 * c));
+        }
 
         glGenVertexArrays(1, &emptyVao);
         glGenVertexArrays(1, &groundVao);
@@ -349,6 +395,8 @@ struct Renderer::Impl {
             glDeleteBuffers(1, &m.ebo);
         }
         glDeleteVertexArrays(1, &emptyVao);
+        glDeleteVertexArrays(1, &overlayVao);
+        glDeleteBuffers(1, &overlayVbo);
         glDeleteVertexArrays(1, &groundVao);
         glDeleteBuffers(1, &groundVbo);
         glDeleteBuffers(1, &groundEbo);
@@ -384,7 +432,9 @@ struct Renderer::Impl {
         if (sceneDepth) glDeleteRenderbuffers(1, &sceneDepth);
         if (outFbo) glDeleteFramebuffers(1, &outFbo);
         if (outColour) glDeleteTextures(1, &outColour);
-        sceneFbo = sceneColour = sceneDepth = outFbo = outColour = 0;
+        if (groundFbo) glDeleteFramebuffers(1, &groundFbo);
+        if (groundColour) glDeleteTextures(1, &groundColour);
+        sceneFbo = sceneColour = sceneDepth = outFbo = outColour = groundFbo = groundColour = 0;
         targetWidth = targetHeight = targetFactor = 0;
     }
 
@@ -413,7 +463,7 @@ struct Renderer::Impl {
 
         glGenTextures(1, &outColour);
         glBindTexture(GL_TEXTURE_2D, outColour);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16, w, h, 0, GL_RGBA, GL_UNSIGNED_SHORT, nullptr);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
@@ -421,6 +471,17 @@ struct Renderer::Impl {
         glBindFramebuffer(GL_FRAMEBUFFER, outFbo);
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, outColour, 0);
         checkFramebuffer("output");
+
+        glGenTextures(1, &groundColour);
+        glBindTexture(GL_TEXTURE_2D, groundColour);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        glGenFramebuffers(1, &groundFbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, groundColour, 0);
+        checkFramebuffer("ground");
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
         checkGlError("creating the render targets");
         targetWidth = w;
@@ -476,7 +537,19 @@ struct Renderer::Impl {
             slot.triangles = mesh.triangles;
             slot.vertexCount = nv;
             slot.creaseDegrees = settings.creaseDegrees;
-            buildRenderTopology(slot, nv, slot.faceNormals, settings.creaseDegrees);
+            if (mesh.creasePositions.size() == nv) {
+                std::vector<Vec3f> restNormals(nt);
+                for (std::size_t f = 0; f < nt; ++f) {
+                    const auto& t = mesh.triangles[f];
+                    const Vec3& a = mesh.creasePositions[static_cast<std::size_t>(t[0])];
+                    restNormals[f] = (mesh.creasePositions[static_cast<std::size_t>(t[1])] - a)
+                                         .cross(mesh.creasePositions[static_cast<std::size_t>(t[2])] - a)
+                                         .cast<float>();
+                }
+                buildRenderTopology(slot, nv, restNormals, settings.creaseDegrees);
+            } else {
+                buildRenderTopology(slot, nv, slot.faceNormals, settings.creaseDegrees);
+            }
             // A closed mesh wound inside out (negative signed volume) culls its front faces
             // instead: the visible outside is then its back faces, whose normals the shader flips.
             double volume = 0;
@@ -528,6 +601,78 @@ struct Renderer::Impl {
             }
             glBindVertexArray(0);
             slot.indexCount = static_cast<GLsizei>(nt * 3);
+        }
+    }
+
+    /// Screen-space quads for the overlays (two triangles each, clip coordinates plus a corner
+    /// coordinate in [-1,1]^2): a segment becomes a quad `width` output pixels wide, extended
+    /// by half the width at both ends (square caps, so consecutive segments join); a dot a
+    /// square `size` pixels across that the shader rounds. Segments or dots with a point behind
+    /// the eye (clip w <= 0) are skipped. Uploaded to overlayVbo; draws in overlayDraws.
+    void buildOverlays(const FrameScene& scene, const Mat4& clipFromWorld, int w, int h) {
+        overlayData.clear();
+        overlayDraws.clear();
+        const double sx = 0.5 * w, sy = 0.5 * h;  // NDC -> output pixels
+        auto clip = [&](const Vec3& p) -> Vec4 { return clipFromWorld * p.homogeneous(); };
+        auto emit = [&](const Vec4& c, double ox, double oy, float u, float v) {
+            // (ox, oy): offset in output pixels, turned into clip units at this vertex's w.
+            overlayData.insert(overlayData.end(),
+                               {static_cast<float>(c.x() + ox / sx * c.w()), static_cast<float>(c.y() + oy / sy * c.w()),
+                                static_cast<float>(c.z()), static_cast<float>(c.w()), u, v});
+        };
+        auto quad = [&](const Vec4& a, const Vec4& b, double px, double py, double dx, double dy) {
+            // a - perp - dir, a + perp - dir, b + perp + dir, b - perp + dir
+            emit(a, -px - dx, -py - dy, -1, -1);
+            emit(a, px - dx, py - dy, -1, 1);
+            emit(b, px + dx, py + dy, 1, 1);
+            emit(a, -px - dx, -py - dy, -1, -1);
+            emit(b, px + dx, py + dy, 1, 1);
+            emit(b, -px + dx, -py + dy, 1, -1);
+        };
+        const double kMinW = 1e-9;
+        for (const Polyline& line : scene.lines) {
+            OverlayDraw d;
+            d.first = static_cast<GLint>(overlayData.size() / 6);
+            d.colour = line.colour;
+            d.onTop = line.onTop;
+            const std::size_t n = line.points.size();
+            const std::size_t segments = n < 2 ? 0 : (line.closed && n > 2 ? n : n - 1);
+            const double half = 0.5 * std::max(line.width, Real(0));
+            for (std::size_t i = 0; i < segments; ++i) {
+                const Vec4 a = clip(line.points[i]), b = clip(line.points[(i + 1) % n]);
+                if (!(a.w() > kMinW && b.w() > kMinW)) continue;
+                double ex = (b.x() / b.w() - a.x() / a.w()) * sx, ey = (b.y() / b.w() - a.y() / a.w()) * sy;
+                const double len = std::hypot(ex, ey);
+                if (len > 1e-12) ex /= len, ey /= len;
+                else ex = 1, ey = 0;
+                quad(a, b, -ey * half, ex * half, ex * half, ey * half);
+            }
+            d.count = static_cast<GLsizei>(overlayData.size() / 6) - d.first;
+            if (d.count > 0) overlayDraws.push_back(d);
+        }
+        for (const PointSet& set : scene.points) {
+            OverlayDraw d;
+            d.first = static_cast<GLint>(overlayData.size() / 6);
+            d.colour = set.colour;
+            d.onTop = set.onTop;
+            d.round = true;
+            const double half = 0.5 * std::max(set.size, Real(0));
+            for (const Vec3& p : set.points) {
+                const Vec4 c = clip(p);
+                if (!(c.w() > kMinW)) continue;
+                quad(c, c, 0, half, half, 0);  // a square 2*half across, corners at (+-1, +-1)
+            }
+            d.count = static_cast<GLsizei>(overlayData.size() / 6) - d.first;
+            if (d.count > 0) overlayDraws.push_back(d);
+        }
+        if (overlayData.empty()) return;
+        glBindBuffer(GL_ARRAY_BUFFER, overlayVbo);
+        const std::size_t bytes = overlayData.size() * sizeof(float);
+        if (bytes > overlayCapacity) {
+            glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(bytes), overlayData.data(), GL_DYNAMIC_DRAW);
+            overlayCapacity = bytes;
+        } else {
+            glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(bytes), overlayData.data());
         }
     }
 
@@ -613,6 +758,16 @@ struct Renderer::Impl {
                     maxDepth = std::max(maxDepth, d);
                 }
             }
+            // Overlays widen the depth range (they may reach beyond the meshes).
+            auto overlayDepth = [&](const Vec3& p) {
+                const Real d = depthOf(p);
+                if (d > 0) minDepth = std::min(minDepth, d);
+                maxDepth = std::max(maxDepth, d);
+            };
+            for (const Polyline& l : scene.lines)
+                for (const Vec3& p : l.points) overlayDepth(p);
+            for (const PointSet& ps : scene.points)
+                for (const Vec3& p : ps.points) overlayDepth(p);
             if (drawGround) {
                 for (int c = 0; c < 4; ++c) {
                     const Vec3 corner(centre.x() + ((c & 1) ? fadeOuter : -fadeOuter), groundY,
@@ -699,6 +854,7 @@ struct Renderer::Impl {
         glUseProgram(meshProgram.id());
         setMat4(meshProgram, "uClipFromWorld", clipFromWorld);
         setLighting(meshProgram, lights);
+        setInt(meshProgram, "uFootprint", 0);
         setVec3(meshProgram, "uEye", camera.eye);
         for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
             if (meshes[i].indexCount == 0) continue;
@@ -720,7 +876,12 @@ struct Renderer::Impl {
         glDisable(GL_CULL_FACE);
         glCullFace(GL_BACK);
 
-        if (drawGround) {
+        // With the eye above the ground plane the ground can never hide a mesh (every mesh
+        // point is above it), so it is shaded once per output pixel into its own target and
+        // composited under the supersampled meshes in the resolve: a quarter of the fragments
+        // at 2x2. Otherwise (eye below the plane) it is drawn here, depth-tested, at n x n.
+        const bool groundAtOutput = drawGround && camera.eye.y() > groundY;
+        auto drawGroundCells = [&]() {
             // Where shadows can fall: the bounding sphere projected along the key light onto
             // the ground, an ellipse whose bounding box is the centre cell (plus the PCF reach).
             const Vec3& k = lights.keyDir;
@@ -755,6 +916,7 @@ struct Renderer::Impl {
                 setFloat(p, "uFadeOuter", fadeOuter);
                 setVec3(p, "uGroundAlbedo", Vec3::Constant(0.40));
                 setInt(p, "uCatcher", settings.transparentBackground ? 1 : 0);
+                setInt(p, "uFootprint", groundAtOutput ? 1 : 0);
                 if (program == &groundPlainProgram) {
                     glDrawElements(GL_TRIANGLES, kGroundOuterIndices, GL_UNSIGNED_INT, nullptr);
                 } else {
@@ -763,6 +925,35 @@ struct Renderer::Impl {
                 }
             }
             glBindVertexArray(0);
+        };
+        if (drawGround && !groundAtOutput) drawGroundCells();
+
+        // Overlays last: depth-tested ones pulled slightly towards the eye (lines on a surface
+        // stay visible), on-top ones without the depth test. Flat colour, opaque.
+        buildOverlays(scene, clipFromWorld, w, h);
+        if (!overlayDraws.empty()) {
+            glUseProgram(overlayProgram.id());
+            glBindVertexArray(overlayVao);
+            glEnable(GL_POLYGON_OFFSET_FILL);
+            glPolygonOffset(-1.0f, -4.0f);
+            for (const OverlayDraw& d : overlayDraws) {
+                if (d.onTop) glDisable(GL_DEPTH_TEST);
+                else glEnable(GL_DEPTH_TEST);
+                setVec3(overlayProgram, "uColour", d.colour.cwiseMax(0.0).cwiseMin(1.0));
+                setInt(overlayProgram, "uRound", d.round ? 1 : 0);
+                glDrawArrays(GL_TRIANGLES, d.first, d.count);
+            }
+            glDisable(GL_POLYGON_OFFSET_FILL);
+            glEnable(GL_DEPTH_TEST);
+            glBindVertexArray(0);
+        }
+        if (groundAtOutput) {
+            glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
+            glViewport(0, 0, w, h);
+            glClearColor(0, 0, 0, 0);
+            glClear(GL_COLOR_BUFFER_BIT);
+            glDisable(GL_DEPTH_TEST);
+            drawGroundCells();  // the shadow map is still bound to unit 0
         }
 
         if (settings.profilePasses) {
@@ -771,22 +962,20 @@ struct Renderer::Impl {
         }
         const auto tResolve = std::chrono::steady_clock::now();
 
-        // 3. Box downsample, composite or un-premultiply, sRGB encode -> RGBA16.
+        // 3. Box downsample, composite or un-premultiply -> linear RGBA16F (sRGB on the CPU).
         glBindFramebuffer(GL_FRAMEBUFFER, outFbo);
         glViewport(0, 0, w, h);
         glDisable(GL_DEPTH_TEST);
         glUseProgram(resolveProgram.id());
         glBindTexture(GL_TEXTURE_2D, sceneColour);
         setInt(resolveProgram, "uColour", 0);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_2D, groundColour);
+        glActiveTexture(GL_TEXTURE0);
+        setInt(resolveProgram, "uGround", 1);
+        setInt(resolveProgram, "uHasGround", groundAtOutput ? 1 : 0);
         setInt(resolveProgram, "uTransparent", settings.transparentBackground ? 1 : 0);
         setVec3(resolveProgram, "uBackground", settings.background);
-        // The background encoded exactly on the CPU, as a value that converts back to the same
-        // 16-bit code: background pixels are exactly round(65535 * srgb(background)).
-        float enc[4];
-        for (int c = 0; c < 3; ++c)
-            enc[c] = static_cast<float>(std::lround(65535.0 * encodeSrgb(settings.background[c])) / 65535.0);
-        enc[3] = 1.0f;
-        glUniform4fv(resolveProgram.uniform("uBackgroundEncoded"), 1, enc);
         glBindVertexArray(emptyVao);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glBindVertexArray(0);
@@ -796,20 +985,39 @@ struct Renderer::Impl {
         timings.drawMs = msSince(t0);
         t0 = std::chrono::steady_clock::now();
 
-        // 4. Read back (bottom row first) and flip into the top-down Image.
+        // 4. Read back the half floats (bottom row first); flip into the top-down Image while
+        // encoding: colour through the exact sRGB table, alpha linear. Pixels the resolve
+        // marked as uncovered (alpha < 0) get the background exactly, round(65535 * srgb(bg)),
+        // or (0,0,0,0) when transparent.
         readback.resize(static_cast<std::size_t>(w) * h * 4);
-        glPixelStorei(GL_PACK_ALIGNMENT, 1);
-        glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_SHORT, readback.data());
+        glPixelStorei(GL_PACK_ALIGNMENT, 2);
+        glReadPixels(0, 0, w, h, GL_RGBA, GL_HALF_FLOAT, readback.data());
         checkGlError("rendering a frame");
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
 
+        std::uint16_t background[4] = {0, 0, 0, 0};
+        if (!settings.transparentBackground) {
+            for (int c = 0; c < 3; ++c)
+                background[c] = static_cast<std::uint16_t>(std::lround(65535.0 * encodeSrgb(settings.background[c])));
+            background[3] = 65535;
+        }
         Image image(w, h);
         const std::size_t rowSamples = static_cast<std::size_t>(w) * 4;
-        for (int y = 0; y < h; ++y) {
-            std::memcpy(image.rgba.data() + rowSamples * static_cast<std::size_t>(y),
-                        readback.data() + rowSamples * static_cast<std::size_t>(h - 1 - y),
-                        rowSamples * sizeof(std::uint16_t));
-        }
+        parallelFor(static_cast<Index>(h), [&](Index yi) {
+            const std::size_t y = static_cast<std::size_t>(yi);
+            const std::uint16_t* src = readback.data() + rowSamples * (static_cast<std::size_t>(h) - 1 - y);
+            std::uint16_t* dst = image.rgba.data() + rowSamples * y;
+            for (std::size_t i = 0; i < rowSamples; i += 4) {
+                if (src[i + 3] & 0x8000) {  // negative alpha: nothing drawn here
+                    std::memcpy(dst + i, background, sizeof background);
+                    continue;
+                }
+                dst[i] = srgbOfHalf[src[i]];
+                dst[i + 1] = srgbOfHalf[src[i + 1]];
+                dst[i + 2] = srgbOfHalf[src[i + 2]];
+                dst[i + 3] = unormOfHalf[src[i + 3]];
+            }
+        }, 16);
         timings.readbackMs = msSince(t0);
         return image;
     }

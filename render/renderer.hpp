@@ -33,11 +33,37 @@ struct DrawMesh {
     Vec3 colour = Vec3(0.8, 0.8, 0.8);          ///< linear RGB albedo in [0,1]
     std::vector<Real> scalar;                   ///< per vertex (same size as positions) or empty
     ScalarRamp ramp;                            ///< how `scalar` colours the surface
+    /// Optional (same size as positions): where the crease split is decided when the triangle
+    /// list is first seen, instead of this frame's positions. A deforming mesh passes its rest
+    /// shape, so a render of frames A-B splits like a render of the whole range.
+    std::vector<Vec3> creasePositions;
+};
+
+/// A polyline overlay (curves, GLN network loops, ...): flat, unlit, `width` output pixels
+/// wide (screen-space quads per segment, so any width works on any GL). Casts no shadow.
+struct Polyline {
+    std::vector<Vec3> points;   ///< world space
+    bool closed = true;         ///< also joins the last point to the first
+    Vec3 colour = Vec3(1.0, 0.9, 0.1);  ///< linear RGB
+    Real width = 2;             ///< output pixels (> 0)
+    bool onTop = false;         ///< drawn over everything (no depth test); else depth-tested
+};
+
+/// Dots (e.g. the lattice points): round, flat, `size` output pixels across. Casts no shadow.
+struct PointSet {
+    std::vector<Vec3> points;   ///< world space
+    Vec3 colour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB
+    Real size = 3;              ///< diameter, output pixels (> 0)
+    bool onTop = true;          ///< drawn over everything (points inside a volume show through)
 };
 
 struct FrameScene {
     std::vector<DrawMesh> meshes;
     bool groundPlane = true;  ///< a ground under the lowest point, with a soft contact shadow
+    /// Overlays, drawn after the surfaces and the ground (they do not move the ground, the
+    /// shadow or the lights, which follow the meshes' bounds).
+    std::vector<Polyline> lines;
+    std::vector<PointSet> points;
 };
 
 /// Where the OpenGL context comes from (both give llvmpipe and bit-identical images on Mesa 22).

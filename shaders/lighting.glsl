@@ -20,6 +20,7 @@ uniform mat4 uShadowFromWorld;  // world -> [0,1]^3 shadow-map coordinates (orth
 uniform float uShadowRadius;    // tap offset, in shadow-map texture units (~1 texel)
 uniform float uNormalOffset;    // receiver offset along the normal, world units
 uniform int uShadowsOn;
+uniform int uFootprint;         // 1: spread the taps over the output pixel (see keyVisibility)
 
 // Key-light visibility in [0,1]: percentage-closer filtering with 4 hardware bilinear depth
 // comparisons on a fixed square (+-r, +-r). Each tap weighs a 2x2 texel footprint, so the four
@@ -36,10 +37,15 @@ float keyVisibility(vec3 p, vec3 n) {
     if (c.x < 0.0 || c.x > 1.0 || c.y < 0.0 || c.y > 1.0) return 1.0;
     float ref = min(c.z, 0.9999);
     float r = uShadowRadius;
-    float sum = texture(uShadowMap, vec3(c.xy + vec2(-r, -r), ref))
-              + texture(uShadowMap, vec3(c.xy + vec2(r, -r), ref))
-              + texture(uShadowMap, vec3(c.xy + vec2(-r, r), ref))
-              + texture(uShadowMap, vec3(c.xy + vec2(r, r), ref));
+    // uFootprint (the ground shaded once per output pixel): the taps also spread over the
+    // pixel's footprint in the map, at its 2x2 subsample positions, so the shadow edge is
+    // filtered like the supersampled meshes instead of stepping from pixel to pixel.
+    vec2 dx = uFootprint != 0 ? 0.25 * dFdx(c.xy) : vec2(0.0);
+    vec2 dy = uFootprint != 0 ? 0.25 * dFdy(c.xy) : vec2(0.0);
+    float sum = texture(uShadowMap, vec3(c.xy - dx - dy + vec2(-r, -r), ref))
+              + texture(uShadowMap, vec3(c.xy + dx - dy + vec2(r, -r), ref))
+              + texture(uShadowMap, vec3(c.xy - dx + dy + vec2(-r, r), ref))
+              + texture(uShadowMap, vec3(c.xy + dx + dy + vec2(r, r), ref));
     return 0.25 * sum;
 #endif
 }

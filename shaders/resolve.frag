@@ -1,7 +1,9 @@
 #version 330 core
 // Box-filter downsample of the n x n supersampled, premultiplied linear image, then either
-// composite over the background (opaque) or un-premultiply (transparent), then encode with the
-// exact sRGB curve. Writes to an RGBA16 (unorm) target that is read back as 16-bit samples.
+// composite over the background (opaque) or un-premultiply (transparent). Writes linear colour
+// to an RGBA16F target; the renderer encodes sRGB on the CPU with exact tables (cheaper than
+// three pow() per pixel on llvmpipe). Pixels with no coverage get alpha -1: the CPU writes the
+// background there exactly.
 // DGV_FACTOR (n, 1..4) is compiled in. For even n the box is summed from bilinear samples at
 // the centres of 2x2 texel blocks (weights exactly 1/4 each: the same box filter), because on
 // llvmpipe one filtered sample costs less than four texelFetch calls (measured: 111-142 ms vs
@@ -10,16 +12,12 @@
 #define DGV_FACTOR 2
 #endif
 uniform sampler2D uColour;        // GL_LINEAR, clamp to edge
+uniform sampler2D uGround;        // the ground at output size (premultiplied), when uHasGround
+uniform int uHasGround;
 uniform int uTransparent;
 uniform vec3 uBackground;         // linear
-uniform vec4 uBackgroundEncoded;  // sRGB-encoded on the CPU (exact), alpha 1
 
 out vec4 fragColour;
-
-float encodeSrgb(float x) {
-    x = clamp(x, 0.0, 1.0);
-    return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
-}
 
 void main() {
     ivec2 base = ivec2(gl_FragCoord.xy) * DGV_FACTOR;
@@ -36,8 +34,9 @@ void main() {
         for (int i = 0; i < DGV_FACTOR; ++i) sum += texelFetch(uColour, base + ivec2(i, j), 0);
     vec4 s = sum / float(DGV_FACTOR * DGV_FACTOR);
 #endif
-    if (s.a <= 0.0) {  // nothing drawn here: the background exactly
-        fragColour = uTransparent != 0 ? vec4(0.0) : uBackgroundEncoded;
+    if (uHasGround != 0) s += (1.0 - min(s.a, 1.0)) * texelFetch(uGround, ivec2(gl_FragCoord.xy), 0);
+    if (s.a <= 0.0) {  // nothing drawn here: the CPU writes the background exactly
+        fragColour = vec4(0.0, 0.0, 0.0, -1.0);
         return;
     }
     vec3 c3;
@@ -49,5 +48,5 @@ void main() {
         a = 1.0;
         c3 = s.rgb + (1.0 - min(s.a, 1.0)) * uBackground;
     }
-    fragColour = vec4(encodeSrgb(c3.r), encodeSrgb(c3.g), encodeSrgb(c3.b), a);
+    fragColour = vec4(c3, a);  // linear; sRGB-encoded on the CPU
 }
