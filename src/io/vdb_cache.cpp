@@ -69,6 +69,15 @@ std::array<T, 8> monomials(const std::array<T, 8>& X) {
             X[7] - X[6] - X[5] - X[3] + X[4] + X[2] + X[1] - X[0]};
 }
 
+/// evalMonomials for vectors, in scalars.
+inline Vec3 evalVec(const std::array<Vec3, 8>& a, const Vec3& s) {
+    const Real s0 = s[0], s1 = s[1], s2 = s[2], s01 = s0 * s1, s02 = s0 * s2, s12 = s1 * s2, s012 = s01 * s2;
+    Vec3 r;
+    for (int q = 0; q < 3; ++q)
+        r[q] = a[0][q] + a[1][q] * s0 + a[2][q] * s1 + a[3][q] * s2 + a[4][q] * s01 + a[5][q] * s02 + a[6][q] * s12 + a[7][q] * s012;
+    return r;
+}
+
 template <typename T>
 T evalMonomials(const std::array<T, 8>& a, const Vec3& s) {
     return a[0] + a[1] * s[0] + a[2] * s[1] + a[3] * s[2] + a[4] * (s[0] * s[1]) +
@@ -105,7 +114,64 @@ struct CellMap {
     Vec3 margin;             // prefilter margin per axis, in s units
     Eigen::Vector3i lo, hi;  // world voxel index range to visit (inclusive)
     bool valid = false;      // centre Jacobian invertible and positive
+    Real acceptStep = 0;     // Newton stops after a step this small (s units), see solveCell
+    Real kNewton = 0;        // 4 |J(1/2)^-1| |nonlinear part|: bounds second-order errors in s
+    Vec3 reach;              // per axis: bound on g_a hv (coverage > 0 needs -reach < s_a < 1 + reach)
 };
+
+/// A solved voxel: s = x^-1(p) and J^-1 at (the last Newton iterate before) s.
+struct InverseSolve {
+    Vec3 s;
+    Mat3 inv;
+    Vec3 p;
+    Vec3 g2;  // |grad s_a|^2 = |row a of J^-1|^2
+    /// First-order guess for the solution at q: s + J^-1 (q - p).
+    Vec3 predict(const Vec3& q) const { return s + inv * (q - p); }
+};
+
+/// Newton's method for x(s) = p from sol.s (the prediction), written out in scalars: each step
+/// evaluates x and J together and inverts J by cofactors. Quadratic convergence: after a step
+/// of size d the error is about K d^2, K = |J^-1| |second derivatives of x| (the cell's
+/// `acceptStep` is 1e-6 / sqrt(K) capped at 1e-4), so stopping after a step below acceptStep
+/// leaves an error below ~1e-12 in s. Returns false for a Jacobian with det <= detMin (inverted or
+/// degenerate cell) or no convergence in 12 steps. s is kept within [-1, 2]^3.
+inline bool solveCell(const CellMap& m, const Vec3& p, Real detMin, InverseSolve& sol) {
+    const std::array<Vec3, 8>& a = m.x;
+    Real s0 = sol.s[0], s1 = sol.s[1], s2 = sol.s[2];
+    sol.p = p;
+    for (int it = 0; it < 12; ++it) {
+        const Real s01 = s0 * s1, s02 = s0 * s2, s12 = s1 * s2, s012 = s01 * s2;
+        Real r[3], c0[3], c1[3], c2[3];  // residual x(s) - p; Jacobian columns
+        for (int q = 0; q < 3; ++q) {
+            r[q] = a[0][q] + a[1][q] * s0 + a[2][q] * s1 + a[3][q] * s2 + a[4][q] * s01 + a[5][q] * s02 +
+                   a[6][q] * s12 + a[7][q] * s012 - p[q];
+            c0[q] = a[1][q] + a[4][q] * s1 + a[5][q] * s2 + a[7][q] * s12;
+            c1[q] = a[2][q] + a[4][q] * s0 + a[6][q] * s2 + a[7][q] * s02;
+            c2[q] = a[3][q] + a[5][q] * s0 + a[6][q] * s1 + a[7][q] * s01;
+        }
+        // rows of J^-1: (c1 x c2, c2 x c0, c0 x c1) / det
+        const Real r0x = c1[1] * c2[2] - c1[2] * c2[1], r0y = c1[2] * c2[0] - c1[0] * c2[2], r0z = c1[0] * c2[1] - c1[1] * c2[0];
+        const Real det = c0[0] * r0x + c0[1] * r0y + c0[2] * r0z;
+        if (!(det > detMin)) return false;
+        const Real r1x = c2[1] * c0[2] - c2[2] * c0[1], r1y = c2[2] * c0[0] - c2[0] * c0[2], r1z = c2[0] * c0[1] - c2[1] * c0[0];
+        const Real r2x = c0[1] * c1[2] - c0[2] * c1[1], r2y = c0[2] * c1[0] - c0[0] * c1[2], r2z = c0[0] * c1[1] - c0[1] * c1[0];
+        const Real id = 1 / det;
+        const Real d0 = (r0x * r[0] + r0y * r[1] + r0z * r[2]) * id;
+        const Real d1 = (r1x * r[0] + r1y * r[1] + r1z * r[2]) * id;
+        const Real d2 = (r2x * r[0] + r2y * r[1] + r2z * r[2]) * id;
+        s0 = std::min(Real(2), std::max(Real(-1), s0 - d0));
+        s1 = std::min(Real(2), std::max(Real(-1), s1 - d1));
+        s2 = std::min(Real(2), std::max(Real(-1), s2 - d2));
+        if (std::max(std::abs(d0), std::max(std::abs(d1), std::abs(d2))) < m.acceptStep) {
+            sol.s = Vec3(s0, s1, s2);
+            sol.inv << r0x * id, r0y * id, r0z * id, r1x * id, r1y * id, r1z * id, r2x * id, r2y * id, r2z * id;
+            sol.g2 = Vec3(r0x * r0x + r0y * r0y + r0z * r0z, r1x * r1x + r1y * r1y + r1z * r1z,
+                          r2x * r2x + r2y * r2y + r2z * r2z) * (id * id);
+            return true;
+        }
+    }
+    return false;
+}
 
 struct ObjectRefs {
     const VdbObjectFrame* frame;
@@ -162,7 +228,8 @@ struct WorldGrids {
 };
 
 WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const Vec3& origin,
-                    const openvdb::math::Transform::Ptr& xform) {
+                    const openvdb::math::Transform::Ptr& xform, VdbStageSeconds& stages) {
+    auto t = Clock::now();
     // ---- per-cell maps --------------------------------------------------------------------
     std::vector<ObjectRefs> refs;
     Index totalCells = 0;
@@ -212,6 +279,13 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                 const Real g = m.centreInverse.row(a).norm();
                 m.margin[a] = g * (0.5 * vs) * 1.5 + g * nonlinear * 2.25 + 1e-9;
             }
+            m.kNewton = 4 * m.centreInverse.norm() * nonlinear;  // see solveCell
+            // g_a = |row a of J^-1| changes over the cell (|s - 1/2| < 1 + margin) by a factor
+            // below 1 + kNewton (first order in the nonlinear part; generous) while kNewton <= 1;
+            // more distorted cells are not pre-screened
+            for (int a = 0; a < 3; ++a)
+                m.reach[a] = m.kNewton <= 1 ? m.centreInverse.row(a).norm() * (0.5 * vs) * (1 + m.kNewton) : Real(1e30);
+            m.acceptStep = m.kNewton > 1e-4 ? 1e-6 / std::sqrt(m.kNewton) : Real(1e-4);
             // world box: the hull of the corners contains the cell; pad by the margin region
             const Real pad = vs + 2.25 * nonlinear;
             for (int a = 0; a < 3; ++a) {
@@ -220,6 +294,9 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             }
         }, 256);
     }
+
+    stages.cells = since(t);
+    t = Clock::now();
 
     // ---- bin cells by leaf block ------------------------------------------------------------
     auto floorDiv = [](int a) { return a >= 0 ? a / kLeafDim : -((-a + kLeafDim - 1) / kLeafDim); };
@@ -252,6 +329,9 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
     const Index blocks = static_cast<Index>(blockStart.size());
     blockStart.push_back(pairs.size());
 
+    stages.bins = since(t);
+    t = Clock::now();
+
     // ---- per-block resampling ------------------------------------------------------------------
     using FloatLeaf = openvdb::FloatTree::LeafNodeType;
     using VecLeaf = openvdb::Vec3STree::LeafNodeType;
@@ -282,6 +362,15 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             Eigen::Vector3i lo = m.lo.cwiseMax(base), hi = m.hi.cwiseMin(base + Eigen::Vector3i::Constant(kLeafDim - 1));
             if ((lo.array() > hi.array()).any()) continue;
             const Vec3 step = m.centreInverse.col(0) * vs;  // ds per +1 in i
+            Vec3 invStep = Vec3::Zero();  // used where |step| > 1e-300
+            for (int a = 0; a < 3; ++a)
+                if (std::abs(step[a]) > 1e-300) invStep[a] = 1 / step[a];
+            const Real detMin = 1e-12 * m.h * m.h * m.h;
+            // Continuation: the first voxel of a row starts from the first solved voxel of the
+            // previous row (or the affine guess), the others from their left neighbour, each
+            // moved by J^-1 (p - p_anchor); Newton then needs about one step.
+            bool haveRowAnchor = false;
+            InverseSolve rowAnchor;
             for (int kz = lo[2]; kz <= hi[2]; ++kz)
                 for (int jy = lo[1]; jy <= hi[1]; ++jy) {
                     // affine guess along the row: s(i) = s_lo + (i - lo) step; keep the i with
@@ -292,48 +381,68 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                     for (int a = 0; a < 3; ++a) {
                         const Real l = -m.margin[a] - s0[a], u = 1 + m.margin[a] - s0[a];
                         if (step[a] > 1e-300) {
-                            tmin = std::max(tmin, l / step[a]);
-                            tmax = std::min(tmax, u / step[a]);
+                            tmin = std::max(tmin, l * invStep[a]);
+                            tmax = std::min(tmax, u * invStep[a]);
                         } else if (step[a] < -1e-300) {
-                            tmin = std::max(tmin, u / step[a]);
-                            tmax = std::min(tmax, l / step[a]);
+                            tmin = std::max(tmin, u * invStep[a]);
+                            tmax = std::min(tmax, l * invStep[a]);
                         } else if (l > 0 || u < 0) {
                             tmax = -1;
                         }
                     }
                     if (tmin > tmax) continue;
                     const int i0 = lo[0] + static_cast<int>(std::ceil(tmin)), i1 = lo[0] + static_cast<int>(std::floor(tmax));
+                    bool havePrev = false;
+                    InverseSolve prev;
                     for (int ix = i0; ix <= i1; ++ix) {
                         const Vec3 p = origin + vs * Vec3(ix, jy, kz);
-                        Vec3 s = s0 + Real(ix - lo[0]) * step;
-                        Mat3 Jinv;
-                        bool ok = false;
-                        for (int it = 0; it < 12; ++it) {
-                            if (!invertPositive(jacobian(m.x, s), m.h, Jinv)) break;
-                            const Vec3 ds = Jinv * (evalMonomials(m.x, s) - p);
-                            s -= ds;
-                            s = s.cwiseMax(Vec3::Constant(-1)).cwiseMin(Vec3::Constant(2));
-                            if (ds.cwiseAbs().maxCoeff() < 1e-11) {
-                                ok = true;
-                                break;
+                        InverseSolve sol;
+                        if (havePrev || haveRowAnchor) {
+                            // predicted from a solved voxel: skip the voxel when the prediction
+                            // lies clearly outside the region where the coverage is > 0,
+                            // s_a in (-g_a hv, 1 + g_a hv) (the error of the prediction is below
+                            // kNewton |ds|^2; g changes by a factor below 1 + kNewton |ds|)
+                            const InverseSolve& an = havePrev ? prev : rowAnchor;
+                            const Vec3 ds = an.inv * (p - an.p);
+                            sol.s = an.s + ds;
+                            const Real err = m.kNewton * ds.squaredNorm() + 1e-3;
+                            bool outside = false;
+                            for (int a = 0; a < 3; ++a) {
+                                const Real r = m.reach[a] + err;
+                                outside = outside || sol.s[a] < -r || sol.s[a] > 1 + r;
                             }
+                            if (outside) continue;
+                        } else {
+                            sol.s = s0 + Real(ix - lo[0]) * step;
                         }
-                        if (!ok) {
+                        if (!solveCell(m, p, detMin, sol)) {
                             ++unresolved;
+                            havePrev = false;
                             continue;
                         }
+                        if (!havePrev) {
+                            rowAnchor = sol;
+                            haveRowAnchor = true;
+                        }
+                        prev = sol;
+                        havePrev = true;
+                        const Vec3& s = sol.s;
                         // coverage: separable box filter with first-order face distances
+                        // (|grad s_a| = |row a of J^-1|)
+                        // (in s units: t = g hv, overlap min(t, s) + min(t, 1 - s), over 2 t)
                         Real c = 1;
                         for (int a = 0; a < 3 && c > 0; ++a) {
-                            const Real g = Jinv.row(a).norm();
-                            const Real ov = std::min(hv, s[a] / g) + std::min(hv, (1 - s[a]) / g);
-                            c = ov <= 0 ? 0 : c * std::min(Real(1), ov / vs);
+                            const Real t2 = sol.g2[a] * hv * hv, u = std::min(s[a], 1 - s[a]);
+                            if (u >= 0 && u * u >= t2) continue;  // a whole voxel's width
+                            const Real tg = std::sqrt(t2);
+                            const Real ov = std::min(tg, s[a]) + std::min(tg, 1 - s[a]);
+                            c = ov <= 0 ? 0 : c * std::min(Real(1), ov / (2 * tg));
                         }
                         if (!(c > 1e-9)) continue;
                         const std::size_t at = static_cast<std::size_t>((ix - base[0]) * kLeafDim * kLeafDim + (jy - base[1]) * kLeafDim + (kz - base[2]));
                         const Vec3 sc = s.cwiseMax(Vec3::Zero()).cwiseMin(Vec3::Ones());  // keeps contact in 0..1
                         cov[at] += c;
-                        vel[at] += c * evalMonomials(m.v, s);  // extrapolated by < 1/2 voxel outside
+                        vel[at] += c * evalVec(m.v, s);  // extrapolated by < 1/2 voxel outside
                         rest[at] += c * (m.restLowest + m.h * s);
                         con[at] += c * evalMonomials(m.k, sc);
                     }
@@ -363,6 +472,8 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         }
     }, 1);
 
+    stages.voxels = since(t);
+    t = Clock::now();
     WorldGrids g;
     g.density = openvdb::FloatGrid::create(0.f);
     g.contact = openvdb::FloatGrid::create(0.f);
@@ -382,6 +493,7 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
     g.contact->setTransform(xform);
     g.vel->setTransform(xform);
     g.rest->setTransform(xform);
+    stages.trees = since(t);
     return g;
 }
 
@@ -397,9 +509,13 @@ void stamp(GridT& grid, const std::string& name, openvdb::GridClass cls, const V
 /// io::File::write ignores the state of its std::ofstream (on a full disk it returns normally and
 /// leaves a truncated file); this does the same writing (Archive::write, seekable, so the grid
 /// offsets for partial reads are recorded) on a stream whose state we check.
+/// (Serialising the grids in parallel, each as a one-grid file in memory spliced into one file,
+/// was tried: no faster on 2 cores, see docs/vdb.md.)
 class CheckedArchive : public openvdb::io::Archive {
 public:
-    void writeFile(const fs::path& file, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta) const {
+    void writeFile(const fs::path& file, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta,
+                   VdbStageSeconds& stages) const {
+        const auto t = Clock::now();
         std::ofstream os(file, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
         if (!os) throw RuntimeError("cannot open " + file.string() + " for writing");
         openvdb::io::Archive::write(os, grids, /*seekable=*/true, meta);
@@ -412,6 +528,7 @@ public:
         const std::uintmax_t size = fs::file_size(file, ec);
         if (ec || end < 0 || size != std::uintmax_t(end))
             throw RuntimeError("the written file has " + std::to_string(size) + " bytes, expected " + std::to_string(end));
+        stages.file = since(t);
     }
 };
 
@@ -471,7 +588,7 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
 
     VdbWriteReport report;
     openvdb::math::Transform::Ptr xform = latticeTransform(vs, origin);
-    WorldGrids world = resample(objects, vs, origin, xform);
+    WorldGrids world = resample(objects, vs, origin, xform, report.stages);
     report.activeVoxels = world.activeVoxels;
     report.densityVolume = world.densitySum * vs * vs * vs;
     report.unresolved = world.unresolved;
@@ -495,6 +612,7 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
     grids.push_back(world.contact);
 
     // ---- surface ---------------------------------------------------------------------------
+    auto ts = Clock::now();
     if (settings.surface) {
         openvdb::FloatGrid::Ptr surface;
         for (const VdbObjectFrame& f : objects) {
@@ -532,7 +650,10 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         }
     }
 
+    report.stages.surface = since(ts);
+
     // ---- lattice grids ---------------------------------------------------------------------
+    ts = Clock::now();
     for (const VdbObjectFrame& f : objects) {
         const std::string suffix = objects.size() == 1 ? "" : "_" + sanitise(f.name);
         const Lattice& lat = *f.lattice;
@@ -569,6 +690,7 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         grids.push_back(pos);
         grids.push_back(ratio);
     }
+    report.stages.lattice = since(ts);
     report.resampleSeconds = since(t0);
 
     // ---- write, check, rename --------------------------------------------------------------
@@ -589,10 +711,11 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         CheckedArchive archive;
         archive.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
         openvdb::GridCPtrVec constGrids(grids.begin(), grids.end());
-        archive.writeFile(tmp, constGrids, meta);
+        archive.writeFile(tmp, constGrids, meta, report.stages);
         verifyWritten(tmp, names);
     });
     report.writeSeconds = since(t1);
+    report.stages.verify = report.writeSeconds - report.stages.file;
     std::error_code ec;
     report.bytes = fs::file_size(path, ec);
     report.seconds = since(t0);

@@ -58,6 +58,18 @@ struct VdbWriteSettings {
     Real surfaceHalfWidth = 3;   ///< narrow-band half width of `surface`, in voxels
 };
 
+/// Wall-clock seconds of the stages of writeVdbFrame (`dgv bench vdb` prints them).
+struct VdbStageSeconds {
+    double cells = 0;      ///< per-cell trilinear maps and voxel boxes
+    double bins = 0;       ///< sorting the (leaf block, cell) pairs
+    double voxels = 0;     ///< inverting the cell maps at the voxel centres, coverage, values
+    double trees = 0;      ///< the leaves into the four world grids
+    double surface = 0;    ///< the `surface` level set (when asked for)
+    double lattice = 0;    ///< `position` and `volume_ratio`
+    double file = 0;       ///< OpenVDB serialisation with Blosc into the file, size check
+    double verify = 0;     ///< re-reading the file's metadata, and the rename
+};
+
 struct VdbWriteReport {
     std::uintmax_t bytes = 0;    ///< size of the written file
     double seconds = 0;          ///< whole call, wall clock
@@ -68,6 +80,7 @@ struct VdbWriteReport {
     Real objectVolume = 0;       ///< sum of the deformed cell volumes of all objects
     Index unresolved = 0;        ///< voxel-cell pairs where inverting the trilinear map failed
                                  ///< (inverted or degenerate cells); 0 for a valid state
+    VdbStageSeconds stages;      ///< where the time went
 };
 
 /// `<dir>/<scene>.####.vdb` (four digits, more past 9999).
