@@ -123,6 +123,8 @@ TEST_CASE("scene_json: every bad input names the file, the JSON path and the pro
          "objects[0].primitive.radius: expected a number, got \"big\""},
         {R"({"objects": [{"name": "a"}]})", "objects[0]: give exactly one of 'mesh' (a file) or 'primitive'"},
         {R"({"objects": []})", "objects: a scene needs at least one object"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"volume_tolerance": 0}}]})",
+         "objects[0].material.volume_tolerance: expected a number in [1e-12, 0.1], got 0"},
         {R"({"objects": [{"primitive": {"type": "sphere"}, "name": "a"}, {"primitive": {"type": "box"}, "name": "a"}]})",
          "objects[1].name: duplicate object name \"a\""},
         {R"({"objects": [{"primitive": {"type": "torus", "major_radius": 0.2, "minor_radius": 0.3}}]})",
@@ -242,4 +244,18 @@ TEST_CASE("scene_json: curves (the GLN figures) map onto the settings and are va
         INFO(text);
         CHECK_THAT(errorOf(text), Catch::Contains(expected));
     }
+}
+
+TEST_CASE("scene_json: material keys map onto the object", "[io][scene]") {
+    const SceneDesc s = parseScene(
+        R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"density": 500, "damping": 2, "stiffness": 10,
+             "max_delta_gamma": 0.1, "volume_tolerance": 2e-6}}]})",
+        "dir/scene.json");
+    REQUIRE(s.objects.size() == 1);
+    const auto& m = s.objects[0].material;
+    CHECK(m.density == 500);
+    CHECK(m.damping == 2);
+    CHECK(m.stiffness == 10);
+    CHECK(m.maxDeltaGamma == Approx(0.1));
+    CHECK(m.volumeTolerance == Approx(2e-6));
 }
