@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <csignal>
@@ -19,9 +20,31 @@
 
 namespace {
 
+/// Seconds a run has, after SIGINT/SIGTERM, to reach a cancellation point and exit by itself.
+/// Code that never polls for cancellation (a library call such as an import that does not
+/// return) is ended when it runs out; the frames already written stay complete either way.
+constexpr unsigned kCancelGraceSeconds = 10;
+
+/// The forced exit: only async-signal-safe calls.
+[[noreturn]] void exitNow() {
+    dgv::removePendingTemporaries();
+    static const char kMessage[] = "dgv: interrupted; the files already written are complete\n";
+    const ssize_t ignored = write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+    (void)ignored;
+    _exit(dgv::kExitInterrupted);
+}
+
+extern "C" void onAlarm(int) { exitNow(); }
+
+/// The first SIGINT/SIGTERM asks the run to stop after its current step and starts the grace
+/// timer; a second one ends the process at once.
 extern "C" void onSignal(int) {
+    static volatile std::sig_atomic_t received = 0;
+    if (received) exitNow();
+    received = 1;
     dgv::requestCancel();
     dgv::removePendingTemporaries();
+    alarm(kCancelGraceSeconds);
 }
 
 /// A finite number > 0 (CLI::PositiveNumber prints DBL_MAX as its upper bound on failure).
@@ -159,6 +182,7 @@ int main(int argc, char** argv) {
                                                             static_cast<std::size_t>(threads));
     std::signal(SIGINT, onSignal);
     std::signal(SIGTERM, onSignal);
+    std::signal(SIGALRM, onAlarm);
 
     try {
         if (*cRender) return app::runRender(render);

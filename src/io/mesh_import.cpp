@@ -23,6 +23,7 @@
 #include <set>
 #include <sstream>
 #include <system_error>
+#include <vector>
 
 namespace dgv {
 
@@ -131,6 +132,88 @@ void checkOffFile(const fs::path& path) {
             if (w.empty() || w.size() > 15 || w.find_first_not_of("0123456789") != std::string::npos ||
                 std::stoull(w) >= nv)
                 fail("face vertex index '" + w + "' is not in [0, " + std::to_string(nv) + ")");
+        }
+    }
+}
+
+/// PLY headers are validated before assimp sees the file: assimp 5.2's PLY reader loops forever
+/// on a header without `end_header` (found by fuzzing: tests/fuzz/corpus/mesh). Checked, for
+/// files with the `ply` magic or a .ply extension: the magic, a `format` line naming one of the
+/// three encodings, version 1.0; then only `comment`, `obj_info`, `element NAME COUNT` and
+/// `property TYPE NAME` / `property list TYPE TYPE NAME` lines (a property after an element,
+/// known scalar types, counts that fit the file) up to `end_header`.
+void checkPlyHeader(const fs::path& path) {
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+    std::ifstream in(path, std::ios::binary);
+    char magic[4] = {0, 0, 0, 0};
+    in.read(magic, 4);
+    const bool plyMagic = in.gcount() == 4 && magic[0] == 'p' && magic[1] == 'l' && magic[2] == 'y' &&
+                          (magic[3] == '\n' || magic[3] == '\r' || magic[3] == ' ');
+    if (!plyMagic && ext != ".ply") return;
+    in.clear();
+    in.seekg(0, std::ios::end);
+    const auto size = static_cast<std::uintmax_t>(std::max<std::streamoff>(0, in.tellg()));
+    in.seekg(0);
+    const std::string where = path.string();
+    std::size_t lineNo = 0;
+    auto fail = [&](const std::string& what) { throw InputError(where, "line " + std::to_string(lineNo), what); };
+    std::vector<std::string> words;
+    // Headers are short; a line or a header that is not is refused rather than read in full.
+    constexpr std::size_t kMaxLine = 4096, kMaxLines = 10000;
+    auto nextLine = [&]() {
+        std::string line;
+        if (!std::getline(in, line)) return false;
+        ++lineNo;
+        if (line.size() > kMaxLine) fail("a PLY header line longer than " + std::to_string(kMaxLine) + " bytes");
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream ws(line);
+        words.clear();
+        for (std::string w; ws >> w;) words.push_back(w);
+        return true;
+    };
+    if (!nextLine() || words.size() != 1 || words[0] != "ply") fail("not a PLY file: the first line must be 'ply'");
+    if (!nextLine() || words.size() != 3 || words[0] != "format")
+        fail("expected 'format ascii|binary_little_endian|binary_big_endian 1.0' as the second line");
+    if (words[1] != "ascii" && words[1] != "binary_little_endian" && words[1] != "binary_big_endian")
+        fail("unknown PLY format '" + words[1] + "' (expected ascii, binary_little_endian or binary_big_endian)");
+    if (words[2] != "1.0") fail("PLY version '" + words[2] + "' (only 1.0 exists)");
+    static const std::set<std::string> kTypes = {"char",  "uchar",  "short", "ushort", "int",   "uint",
+                                                 "float", "double", "int8",  "uint8",  "int16", "uint16",
+                                                 "int32", "uint32", "float32", "float64"};
+    auto type = [&](const std::string& t) {
+        if (!kTypes.count(t)) fail("unknown PLY property type '" + t + "'");
+    };
+    bool haveElement = false;
+    std::uintmax_t total = 0;  // elements declared; each takes at least one byte
+    while (true) {
+        if (lineNo > kMaxLines) fail("no 'end_header' in the first " + std::to_string(kMaxLines) + " lines");
+        if (!nextLine()) fail("the PLY header has no 'end_header' line");
+        if (words.empty()) continue;
+        const std::string& key = words[0];
+        if (key == "end_header") break;
+        if (key == "comment" || key == "obj_info") continue;
+        if (key == "element") {
+            if (words.size() != 3) fail("expected 'element NAME COUNT'");
+            const std::string& c = words[2];
+            if (c.empty() || c.size() > 15 || c.find_first_not_of("0123456789") != std::string::npos)
+                fail("expected an element count, got '" + c + "'");
+            total += std::stoull(c);
+            if (total > size)
+                fail("the PLY header declares more elements than a " + std::to_string(size) + "-byte file can hold");
+            haveElement = true;
+        } else if (key == "property") {
+            if (!haveElement) fail("a PLY property before any element");
+            if (words.size() >= 2 && words[1] == "list") {
+                if (words.size() != 5) fail("expected 'property list COUNT_TYPE ITEM_TYPE NAME'");
+                type(words[2]);
+                type(words[3]);
+            } else {
+                if (words.size() != 3) fail("expected 'property TYPE NAME'");
+                type(words[1]);
+            }
+        } else {
+            fail("unexpected '" + key + "' in the PLY header (expected element, property, comment or end_header)");
         }
     }
 }
@@ -299,6 +382,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
     const std::string p = path.string();
     checkReadable(path);
     checkOffFile(path);
+    checkPlyHeader(path);
 
     Assimp::DefaultLogger::kill();  // the null logger: assimp prints nothing
     Assimp::Importer importer;

@@ -182,3 +182,22 @@ TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume fini
         CHECK(readAll(part / frameName(f)) == readAll(dir.path() / "full" / frameName(f)));
     }
 }
+
+// A run inside code that never polls for cancellation (here the VDB benchmark; in the field an
+// import stuck in a library) still ends: a second SIGINT/SIGTERM exits at once, and the first
+// one after a 10 s grace (docs/robustness.md; that path takes 10 s, so it is checked by hand).
+TEST_CASE("e2e: a second signal ends a run at once, with one line and exit 130", "[e2e][faults]") {
+    test::TempDir dir("e2e_signal2");
+    const std::string killer =
+        "( " + quote(DGV_EXE) + " bench vdb > bench.out & pid=$!; n=0; "
+        "while ! grep -q bench.threads bench.out 2>/dev/null && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
+        "kill -TERM $pid; sleep 0.2; kill -INT $pid; wait $pid; echo $? > killed.rc ) 2> killed.err; true;";
+    REQUIRE(runDgvIn(dir.path(), "--version", killer).exitCode == 0);
+    const std::string err = readAll(dir.path() / "killed.err");
+    INFO("stderr: " << err << "stdout: " << readAll(dir.path() / "bench.out"));
+    CHECK(std::stoi(readAll(dir.path() / "killed.rc")) == 130);
+    CHECK(lineCount(err) == 1);
+    CHECK_THAT(err, Catch::Contains("dgv: interrupted"));
+    // It stopped inside the benchmark: the figures of the full frame were never printed.
+    CHECK_THAT(readAll(dir.path() / "bench.out"), !Catch::Contains("vdb.frame_seconds"));
+}

@@ -242,6 +242,49 @@ TEST_CASE("mesh_import: OFF files are checked in full before assimp reads them",
           "line 2: expected a vertex count, got 'four'");
 }
 
+// assimp 5.2's PLY reader never returns on a header without end_header (found by scripts/fuzz.sh
+// in CI: 6 inputs, then a timeout). dgv checks PLY headers first and names the line.
+TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]") {
+    test::TempDir dir("mesh-import-ply");
+    const std::string head = "ply\nformat ascii 1.0\ncomment tetrahedron\nelement vertex 4\n"
+                             "property float x\nproperty float y\nproperty float z\n"
+                             "element face 4\nproperty list uchar int vertex_indices\n";
+    const std::string body = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    CHECK(import(write(dir.path(), "tet.ply", head + "end_header\n" + body)).triangleCount() == 4);
+    std::string crlf;
+    for (char c : head + "end_header\n" + body) {
+        if (c == '\n') crlf += '\r';
+        crlf += c;
+    }
+    CHECK(import(write(dir.path(), "crlf.ply", crlf)).triangleCount() == 4);
+    CHECK(import(kModels / "PLY/cube.ply").triangleCount() == 12);
+
+    auto whereOf = [&](const fs::path& p) {
+        try {
+            import(p);
+        } catch (const InputError& e) {
+            return e.where() + ": " + e.problem();
+        }
+        return std::string("no error");
+    };
+    // The fuzzer's input: the header runs into garbage and the file ends without end_header.
+    CHECK(whereOf(write(dir.path(), "fuzz.ply", head + "en3\n3 0 3 2\n3 1 2 3\n")) ==
+          "line 10: unexpected 'en3' in the PLY header (expected element, property, comment or end_header)");
+    CHECK(whereOf(write(dir.path(), "noend.ply", head)) == "line 9: the PLY header has no 'end_header' line");
+    // Detected by the magic whatever the extension, as assimp does.
+    CHECK(whereOf(write(dir.path(), "noend.mesh", head)) == "line 9: the PLY header has no 'end_header' line");
+    CHECK(whereOf(write(dir.path(), "format.ply", "ply\nformat text 1.0\nend_header\n")) ==
+          "line 2: unknown PLY format 'text' (expected ascii, binary_little_endian or binary_big_endian)");
+    CHECK(whereOf(write(dir.path(), "type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty real x\nend_header\n0\n")) ==
+          "line 4: unknown PLY property type 'real'");
+    CHECK(whereOf(write(dir.path(), "orphan.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n")) ==
+          "line 3: a PLY property before any element");
+    CHECK(whereOf(write(dir.path(), "count.ply", "ply\nformat ascii 1.0\nelement vertex 99999999\nend_header\n")) ==
+          "line 3: the PLY header declares more elements than a 56-byte file can hold");
+    CHECK(whereOf(write(dir.path(), "magic.ply", "plyx\nformat ascii 1.0\n")) ==
+          "line 1: not a PLY file: the first line must be 'ply'");
+}
+
 TEST_CASE("mesh_import: real models from assimp's test set", "[io]") {
     MeshImportReport report;
     const TriangleMesh duck = import(kModels / "Collada/duck.dae", "", &report);
