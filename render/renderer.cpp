@@ -438,6 +438,21 @@ struct Renderer::Impl {
         targetWidth = targetHeight = targetFactor = 0;
     }
 
+    /// A w x h RGBA16F texture (nearest sampling, no mipmaps) and a framebuffer with it as the
+    /// only colour attachment, left bound; `what` names it if the framebuffer is incomplete.
+    static void makeColourTarget(int w, int h, GLuint& texture, GLuint& fbo, const char* what) {
+        glGenTextures(1, &texture);
+        glBindTexture(GL_TEXTURE_2D, texture);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        glGenFramebuffers(1, &fbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
+        checkFramebuffer(what);
+    }
+
     /// (Re)creates the render targets only when the size or the supersampling changes.
     void ensureTargets(int w, int h, int factor) {
         if (w == targetWidth && h == targetHeight && factor == targetFactor) return;
@@ -461,27 +476,8 @@ struct Renderer::Impl {
         glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, sceneDepth);
         checkFramebuffer("supersampled colour");
 
-        glGenTextures(1, &outColour);
-        glBindTexture(GL_TEXTURE_2D, outColour);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-        glGenFramebuffers(1, &outFbo);
-        glBindFramebuffer(GL_FRAMEBUFFER, outFbo);
-        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, outColour, 0);
-        checkFramebuffer("output");
-
-        glGenTextures(1, &groundColour);
-        glBindTexture(GL_TEXTURE_2D, groundColour);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-        glGenFramebuffers(1, &groundFbo);
-        glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
-        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, groundColour, 0);
-        checkFramebuffer("ground");
+        makeColourTarget(w, h, outColour, outFbo, "output");
+        makeColourTarget(w, h, groundColour, groundFbo, "ground");
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
         checkGlError("creating the render targets");
         targetWidth = w;

@@ -5,6 +5,7 @@
 #include "app/resume.hpp"
 #include "app/dynamics_run.hpp"
 #include "app/scene_build.hpp"
+#include "app/collider_draw.hpp"
 #include "base/errors.hpp"
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"
@@ -13,6 +14,7 @@
 #include "render/camera.hpp"
 #include "render/renderer.hpp"
 #include "sim/contact_highlight.hpp"
+#include "sim/gln_overlay.hpp"
 
 #include <unistd.h>
 
@@ -23,6 +25,7 @@
 #include <cstdlib>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <utility>
 
 namespace dgv::app {
@@ -209,6 +212,11 @@ int runRender(const RenderOptions& options) {
         frameScene.meshes[i].colour = objects[i].color;
         frameScene.meshes[i].creasePositions = objects[i].restMesh.vertices;  // same split for any --frames
     }
+    // Static colliders after the objects (level sets: their zero isosurface), framed with them.
+    for (DrawMesh& m : colliderDrawMeshes(scene)) {
+        for (const Vec3& p : m.positions) bounds.extend(p);
+        frameScene.meshes.push_back(std::move(m));
+    }
     // Contact highlighting (render.contact): the contact set R as a ramp on each moving surface.
     const RenderDesc& rd = scene.render;
     const ContactHighlightMode contactMode = rd.contactMode == "depth"    ? ContactHighlightMode::Depth
@@ -236,6 +244,18 @@ int runRender(const RenderOptions& options) {
             ps.colour = rd.overlayLatticeColour;
             ps.size = rd.overlayPointSize;
         }
+    }
+    // GLN network loops (render.overlays.gln_loops): each object's network built here as the
+    // simulation builds it (the loops depend only on the lattice), so the loops can be shown
+    // whichever way the scene detects contact.
+    const GlnLoopSet loopSet = glnLoopSetFromName(rd.overlayGlnLoopSet);
+    std::vector<std::unique_ptr<GlnNetwork>> loopNetworks(objects.size());
+    if (rd.overlayGlnLoops) {
+        if (loopSet == GlnLoopSet::Contact && scene.collision.detect != CollisionDesc::Detect::Gln)
+            logInfo("render.overlays.gln_loops: collision.detect is not \"gln\", so the loops drawn are those of the "
+                    "points in the signed-distance contact set");
+        for (std::size_t i = 0; i < objects.size(); ++i)
+            if (objects[i].lattice.size() > 0) loopNetworks[i] = std::make_unique<GlnNetwork>(objects[i].lattice);
     }
 
     PngWriteOptions png;
@@ -274,6 +294,8 @@ int runRender(const RenderOptions& options) {
         // up to this frame when there is one; otherwise (and from there) simulate frame by frame.
         if (frame > dynamics.done() + 1) dynamics.restoreCheckpoint(frame);
         dynamics.advanceTo(frame);
+        const Camera camera = frameCamera(scene, bounds, frame, aspect);
+        if (rd.overlayGlnLoops) frameScene.lines.clear();  // this frame's loops replace the last frame's
         for (std::size_t i = 0; i < objects.size(); ++i) {
             const DeformableBody* body = dynamics.body(i);
             deformVertices(objects[i].embedding, body ? body->state() : objects[i].state, frameScene.meshes[i].positions);
@@ -284,8 +306,21 @@ int runRender(const RenderOptions& options) {
                                                          frameScene.meshes[i].ramp.min),
                                       frameScene.meshes[i].scalar);
             if (rd.overlayLattice) frameScene.points[i].points = (body ? body->state() : objects[i].state).position;
+            if (loopNetworks[i]) {
+                static const std::vector<unsigned char> kNoContact;
+                for (ClosedCurve& loop : glnOverlayLoops(*loopNetworks[i], loopSet,
+                                                         (body ? body->state() : objects[i].state).position,
+                                                         body ? body->contact() : kNoContact, &camera.eye)) {
+                    Polyline line;
+                    line.points = std::move(loop);
+                    line.colour = rd.overlayGlnColour;
+                    line.width = rd.overlayLineWidth;
+                    line.onTop = true;  // the rings lie on boundary lattice points, under the surface
+                    frameScene.lines.push_back(std::move(line));
+                }
+            }
         }
-        Image image = renderer.render(frameScene, frameCamera(scene, bounds, frame, aspect));
+        Image image = renderer.render(frameScene, camera);
         const std::string path = framePath(scene.output.dir, scene.name, frame);
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
                     {"Source", glName},

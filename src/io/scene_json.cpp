@@ -1,6 +1,7 @@
 #include "io/scene_json.hpp"
 
 #include "base/errors.hpp"
+#include "io/vdb_read.hpp"
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -479,7 +480,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
 
     r.array("colliders", [&](ObjectReader& c, int) {
         ColliderDesc d;
-        std::string type = c.choice("type", "", {"ground", "sphere", "mesh"});
+        std::string type = c.choice("type", "", {"ground", "sphere", "mesh", "levelset"});
         if (type == "ground") {
             d.type = ColliderType::Ground;
             d.height = c.number("height", 0, -HUGE_VAL, HUGE_VAL);
@@ -487,6 +488,23 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.type = ColliderType::Sphere;
             d.centre = c.vec3("centre", d.centre);
             d.radius = c.number("radius", 1, 0, HUGE_VAL, true);
+        } else if (type == "levelset") {
+            // Loaded here, so a bad file stops every command before anything is written.
+            d.type = ColliderType::LevelSet;
+            if (!c.has("file")) c.fail("file", "missing; a levelset collider needs a .vdb file");
+            d.levelSetPath = resolveInput(sceneDir, c.string("file", "")).string();
+            d.levelSetGrid = c.string("grid", "");
+            c.object("transform", [&](ObjectReader& t) {
+                d.transform = readTransform(t);
+                const Vec3& k = d.transform.scale;
+                if (k.x() != k.y() || k.x() != k.z())
+                    t.fail("scale", "a levelset collider takes a uniform scale only (a number)");
+            });
+            try {
+                d.levelSet = std::make_shared<const SdfGrid>(readVdbLevelSet(d.levelSetPath, d.levelSetGrid));
+            } catch (const InputError& e) {
+                c.fail("file", e.what());
+            }
         } else {
             d.type = ColliderType::Mesh;
             if (!c.has("mesh")) c.fail("mesh", "missing; a mesh collider needs a mesh file");
@@ -560,6 +578,10 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.overlayLattice = o.boolean("lattice", d.overlayLattice);
             d.overlayLatticeColour = o.color("lattice_color", d.overlayLatticeColour);
             d.overlayPointSize = o.number("point_size", d.overlayPointSize, 1, 64);
+            d.overlayGlnLoops = o.boolean("gln_loops", d.overlayGlnLoops);
+            d.overlayGlnLoopSet = o.choice("gln_loop_set", d.overlayGlnLoopSet, {"contact", "all", "coarse"});
+            d.overlayGlnColour = o.color("gln_color", d.overlayGlnColour);
+            d.overlayLineWidth = o.number("line_width", d.overlayLineWidth, 1, 64);
         });
         if (static_cast<long long>(d.width) * d.supersample > 16384 || static_cast<long long>(d.height) * d.supersample > 16384)
             g.fail("supersample", "width and height times supersample must stay within 16384 (the GL limit)");

@@ -281,11 +281,12 @@ std::string dynamicsJson(const SceneDesc& scene) {
 std::uint64_t sceneDynamicsKey(const SceneDesc& scene, const std::vector<const Lattice*>& lattices) {
     Fnv f;
     f.text(dynamicsJson(scene));
-    for (const ColliderDesc& c : scene.colliders) {
-        if (c.meshPath.empty()) continue;
-        std::ifstream in(c.meshPath, std::ios::binary);
-        f.text(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
-    }
+    for (const ColliderDesc& c : scene.colliders)
+        for (const std::string& path : {c.meshPath, c.levelSetPath}) {
+            if (path.empty()) continue;
+            std::ifstream in(path, std::ios::binary);
+            f.text(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
+        }
     f.value(static_cast<std::uint64_t>(lattices.size()));
     for (const Lattice* lat : lattices) {
         if (!lat) {

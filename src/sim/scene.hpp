@@ -5,8 +5,10 @@
 /// the pipeline stages read them. World units are metres, right-handed, Y up.
 
 #include "base/types.hpp"
+#include "geom/sdf_grid.hpp"
 #include "geom/voxelise.hpp"
 
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -90,7 +92,7 @@ struct ForceDesc {
     int modes = 32;                         ///< wind: Fourier modes of the noise (cost ∝ modes)
 };
 
-enum class ColliderType { Ground, Sphere, Mesh };
+enum class ColliderType { Ground, Sphere, Mesh, LevelSet };
 
 struct ColliderDesc {
     ColliderType type = ColliderType::Ground;
@@ -98,7 +100,11 @@ struct ColliderDesc {
     Vec3 centre = Vec3::Zero();             ///< sphere
     Real radius = 1;                        ///< sphere
     std::string meshPath;                   ///< mesh (absolute)
-    TransformDesc transform;                ///< mesh
+    TransformDesc transform;                ///< mesh, levelset (levelset: uniform scale only)
+    std::string levelSetPath;               ///< levelset: the .vdb file (absolute)
+    std::string levelSetGrid;               ///< levelset: grid name; empty: the first level set
+    /// levelset: the grid, loaded by the scene reader (io/scene_json.cpp; never null after it)
+    std::shared_ptr<const SdfGrid> levelSet;
     Real friction = 0.5;                    ///< 0: slip, 1: sticky
     Real restitution = 0.0;                 ///< elastic bounce, 0..1
 };
@@ -173,6 +179,12 @@ struct RenderDesc {
     bool overlayLattice = false;
     Vec3 overlayLatticeColour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB
     Real overlayPointSize = 3;         ///< dot diameter, output pixels
+    /// GLN network loops (docs/gln.md) as lines: "contact" (fine rings of the points in R),
+    /// "all" (every fine ring) or "coarse" (every coarse ring).
+    bool overlayGlnLoops = false;
+    std::string overlayGlnLoopSet = "contact";
+    Vec3 overlayGlnColour = Vec3(0.0331, 1.0, 0.1329);  ///< linear RGB (sRGB [0.2, 1, 0.4])
+    Real overlayLineWidth = 1.5;       ///< line width, output pixels
 };
 
 struct OutputDesc {

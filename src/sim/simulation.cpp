@@ -7,6 +7,7 @@
 #include "base/types.hpp"
 #include "collide/gln_network.hpp"
 #include "sim/forces_from_scene.hpp"
+#include "sim/levelset_collider.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -42,6 +43,13 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
             case ColliderType::Mesh:
                 throw InputError(scene.path, "colliders[" + std::to_string(i) + "].type",
                                  "mesh colliders are not simulated yet; use a ground plane or a sphere");
+            case ColliderType::LevelSet:
+                if (!d.levelSet)  // a SceneDesc built by hand without loading the file
+                    throw InputError(scene.path, "colliders[" + std::to_string(i) + "].file",
+                                     "the level set " + d.levelSetPath + " was not loaded");
+                c.kind = Collider::Kind::Distance;
+                c.distance = levelSetDistance(d.levelSet, d.transform);
+                break;
         }
         mColliders.push_back(std::move(c));
     }

@@ -9,6 +9,10 @@
 #include "geom/voxelise.hpp"
 #include "io/png.hpp"
 #include "sim/contact_highlight.hpp"
+#include "sim/gln_overlay.hpp"
+#include "io/scene_json.hpp"
+#include "collide/gln_network.hpp"
+#include "geom/lattice.hpp"
 #include "support/helpers.hpp"
 #include "test_meshes.hpp"
 
@@ -16,6 +20,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -86,17 +91,20 @@ namespace {
 /// A ball (radius 0.5, centre 0.52 above the ground collider at y = 0) pushed down onto it,
 /// seen from below and in front (no drawn ground), so the flattened contact patch faces the
 /// camera; `contact` is the render.contact object ("" for none).
-void writeBallScene(const std::filesystem::path& dir, const std::string& contact, int frames) {
+/// `extra` is appended to the scene's top level (e.g. `"collision": {...}`) and `renderExtra` to
+/// its render object after "contact".
+void writeBallScene(const std::filesystem::path& dir, const std::string& contact, int frames,
+                    const std::string& extra = "", const std::string& renderExtra = "") {
     std::ofstream f(dir / "ball.json");
     f << R"({ "name": "ball", "frames": { "start": 1, "end": )" << frames << R"(, "fps": 24 }, "substeps": 2,
   "objects": [ { "name": "ball", "primitive": { "type": "sphere", "radius": 0.5 }, "resolution": 14,
                  "transform": { "translate": [0, 0.52, 0] }, "color": [0.7, 0.2, 0.2],
                  "velocity": [0, -1.5, 0] } ],
   "forces": [ { "type": "gravity" } ],
-  "colliders": [ { "type": "ground", "height": 0 } ],
+  "colliders": [ { "type": "ground", "height": 0 } ],)" << extra << R"(
   "camera": { "type": "look_at", "eye": [0, -1.0, 2.4], "target": [0, 0.35, 0], "fov": 35 },
   "render": { "width": 128, "height": 128, "ground": false)"
-      << (contact.empty() ? "" : ", \"contact\": " + contact) << R"( } })";
+      << (contact.empty() ? "" : ", \"contact\": " + contact) << renderExtra << R"( } })";
 }
 
 /// Where a world point lands in a 128x128 frame of that camera (pixel column, row from the top).
@@ -231,4 +239,225 @@ TEST_CASE("overlays: lines and dots are drawn where the camera projects them", "
     const Vec4 q = cam.clipFromView(1.0, 0.1, 10) * cam.viewFromWorld() * Vec3(1.0, 0.8, 0).homogeneous();
     const int cx = int((q.x() / q.w() * 0.5 + 0.5) * 128), cy = int((0.5 - q.y() / q.w() * 0.5) * 128);
     CHECK(img.pixel(cx + 3, cy + 3)[2] == plain.pixel(cx + 3, cy + 3)[2]);
+}
+
+TEST_CASE("overlays: GLN loop sets follow the network's rings", "[render][overlay]") {
+    const Lattice lat = [] {
+        VoxeliseSettings spec;
+        spec.voxelSize = 0.1;
+        return voxelise(makeSphere(0.5, 32, 16), spec);
+    }();
+    const GlnNetwork net(lat);
+    REQUIRE(net.fine().size() > 50);
+    REQUIRE(!net.coarse().empty());
+    const std::vector<Vec3> x = restPositions(lat);
+    CHECK(glnOverlayLoops(net, GlnLoopSet::All, x, {}).size() == net.fine().size());
+    CHECK(glnOverlayLoops(net, GlnLoopSet::Coarse, x, {}).size() == net.coarse().size());
+    CHECK(glnOverlayLoops(net, GlnLoopSet::Contact, x, {}).empty());  // no step yet: R empty
+    // Two points in R: exactly their fine rings, in ring order.
+    std::vector<unsigned char> R(static_cast<std::size_t>(lat.size()), 0);
+    R[static_cast<std::size_t>(net.fine()[3].centre)] = 1;
+    R[static_cast<std::size_t>(net.fine()[7].centre)] = 1;
+    const std::vector<ClosedCurve> two = glnOverlayLoops(net, GlnLoopSet::Contact, x, R);
+    REQUIRE(two.size() == 2);
+    CHECK(two[0] == net.fineCurve(3, x));
+    CHECK(two[1] == net.fineCurve(7, x));
+    CHECK(glnLoopSetFromName("all") == GlnLoopSet::All);
+    CHECK(glnLoopSetFromName("coarse") == GlnLoopSet::Coarse);
+    CHECK(glnLoopSetFromName("contact") == GlnLoopSet::Contact);
+}
+
+TEST_CASE("overlays: GLN loops are drawn where the camera projects them", "[render][overlay]") {
+    test::FpTrapsOff guard;
+    VoxeliseSettings spec;
+    spec.voxelSize = 0.1;
+    const Lattice lat = voxelise(makeSphere(0.5, 32, 16), spec);
+    const GlnNetwork net(lat);
+    const std::vector<Vec3> x = restPositions(lat);
+    RenderSettings s;
+    s.width = 128;
+    s.height = 128;
+    Renderer renderer(s);
+    Camera cam;
+    cam.eye = Vec3(0, 0, 2.5);
+    cam.target = Vec3::Zero();
+    cam.fovYDegrees = 35;
+    auto pixelOf = [&](const Vec3& p) {
+        const Vec4 q = cam.clipFromView(1.0, 0.1, 10) * cam.viewFromWorld() * p.homogeneous();
+        return Vec2((q.x() / q.w() * 0.5 + 0.5) * 128, (0.5 - q.y() / q.w() * 0.5) * 128);
+    };
+    FrameScene scene;
+    scene.groundPlane = false;
+    scene.meshes.push_back(test::uvSphere(Vec3::Zero(), 0.5));
+    const Image plain = renderer.render(scene, cam);
+    // The coarse rings (2 voxels across: 30 px here) facing the eye, 2 px wide, pure green, over
+    // the surface (they lie on boundary lattice points, just under it), as dgv render draws them.
+    const std::vector<ClosedCurve> loops = glnOverlayLoops(net, GlnLoopSet::Coarse, x, {}, &cam.eye);
+    const std::vector<ClosedCurve> every = glnOverlayLoops(net, GlnLoopSet::Coarse, x, {});
+    REQUIRE(!loops.empty());
+    CHECK(loops.size() < every.size());
+    // Facing the eye on the +z side: the kept rings' centroids are in front, the ones left out
+    // are not on the front cap.
+    auto centroid = [](const ClosedCurve& c) {
+        Vec3 m = Vec3::Zero();
+        for (const Vec3& v : c) m += v;
+        return Vec3(m / Real(c.size()));
+    };
+    for (const ClosedCurve& c : every) {
+        const Vec3 m = centroid(c);
+        if (loopFacesPoint(c, cam.eye)) CHECK(m.z() > -0.1);
+        else CHECK(m.normalized().z() < 0.5);
+    }
+    auto draw = [&](const std::vector<ClosedCurve>& set) {
+        FrameScene sc = scene;
+        for (const ClosedCurve& c : set) {
+            Polyline l;
+            l.points = c;
+            l.colour = Vec3(0, 1, 0);
+            l.width = 2;
+            l.onTop = true;
+            sc.lines.push_back(l);
+        }
+        return renderer.render(sc, cam);
+    };
+    const Image img = draw(loops);
+    auto isLoop = [](const std::uint16_t* p) { return p[1] > 60000 && p[0] < 4000 && p[2] < 4000; };
+    // Every ring vertex on the side facing the camera (away from the silhouette) projects to a
+    // pixel of pure loop colour.
+    int probed = 0, green = 0;
+    for (const ClosedCurve& c : loops)
+        for (const Vec3& v : c) {
+            if (v.z() < 0.72 * v.norm()) continue;
+            const Vec2 px = pixelOf(v);
+            ++probed;
+            green += isLoop(img.pixel(int(px.x()), int(px.y()))) ? 1 : 0;
+        }
+    REQUIRE(probed >= 20);
+    CHECK(green >= probed * 9 / 10);  // a vertex on a pixel border may share it with the surface
+    // Without the culling the far side's rings show through as well: more loop pixels.
+    const Image both = draw(every);
+    int front = 0, all = 0;
+    for (int yy = 0; yy < 128; ++yy)
+        for (int xx = 0; xx < 128; ++xx) {
+            front += isLoop(img.pixel(xx, yy)) ? 1 : 0;
+            all += isLoop(both.pixel(xx, yy)) ? 1 : 0;
+            if (isLoop(img.pixel(xx, yy))) CHECK(isLoop(both.pixel(xx, yy)));
+        }
+    CHECK(all > front + front / 10);
+    // Pixels beyond the ball's disc and the loops' reach are the background, as without loops.
+    const Vec2 corner = pixelOf(Vec3(0.75, 0.75, 0));
+    for (int c = 0; c < 4; ++c) CHECK(img.pixel(int(corner.x()), int(corner.y()))[c] == plain.pixel(int(corner.x()), int(corner.y()))[c]);
+}
+
+namespace {
+
+/// The ball scene of writeBallScene with `overlays` as render.overlays and GLN detection.
+void writeLoopScene(const std::filesystem::path& dir, const std::string& overlays, int frames) {
+    writeBallScene(dir, "", frames, R"(
+  "collision": { "detect": "gln" },)", ", \"overlays\": " + overlays);
+}
+
+}  // namespace
+
+TEST_CASE("overlays: render.overlays.gln_loops draws the rings of the contact set", "[render][overlay][e2e]") {
+    test::TempDir dir("gln_loops");
+    writeLoopScene(dir.path(), R"({ "gln_loops": true, "gln_color": [0, 1, 0], "line_width": 2 })", 6);
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q render ball.json --out on --frames 6").exitCode == 0);
+    writeLoopScene(dir.path(), R"({ "gln_loops": false, "gln_color": [0, 1, 0] })", 6);
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q render ball.json --out off --frames 6").exitCode == 0);
+    const Image on = readPng(dir.path() / "on" / "ball.0006.png");
+    const Image off = readPng(dir.path() / "off" / "ball.0006.png");
+    int loopPixels = 0, above = 0, offPixels = 0;
+    const Vec2 centre = project(Vec3(0, 0.35, 0.5));
+    for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 128; ++x) {
+            offPixels += highlighted(off, x, y) ? 1 : 0;
+            if (!highlighted(on, x, y)) continue;
+            ++loopPixels;
+            above += y < centre.y() ? 1 : 0;
+        }
+    CHECK(offPixels == 0);
+    CHECK(loopPixels >= 20);  // the rings of the flattened patch
+    CHECK(above == 0);        // only where the ball meets the ground
+    // Pixels the loops do not reach are the same as without them.
+    const Vec2 top = project(Vec3(0, 0.75, 0.42));
+    for (int c = 0; c < 4; ++c) CHECK(on.pixel(int(top.x()), int(top.y()))[c] == off.pixel(int(top.x()), int(top.y()))[c]);
+
+    // "all": every fine ring, over the whole front of the ball.
+    writeLoopScene(dir.path(), R"({ "gln_loops": true, "gln_loop_set": "all", "gln_color": [0, 1, 0] })", 6);
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q render ball.json --out all --frames 6").exitCode == 0);
+    const Image all = readPng(dir.path() / "all" / "ball.0006.png");
+    int allAbove = 0;
+    for (int y = 0; y < int(centre.y()); ++y)
+        for (int x = 0; x < 128; ++x) allAbove += highlighted(all, x, y) ? 1 : 0;
+    CHECK(allAbove >= 50);
+}
+
+TEST_CASE("overlays: bad render.overlays settings are one-line input errors", "[render][overlay][e2e]") {
+    test::TempDir dir("overlay_bad");
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {R"({ "gln_loops": "yes" })", "render.overlays.gln_loops: expected true or false"},
+        {R"({ "gln_loops": true, "gln_loop_set": "some" })",
+         "render.overlays.gln_loop_set: expected one of 'contact', 'all', 'coarse'"},
+        {R"({ "gln_loops": true, "line_width": 0.5 })", "render.overlays.line_width"},
+        {R"({ "gln_loops": true, "line_width": 65 })", "render.overlays.line_width"},
+        {R"({ "gln_loops": true, "gln_color": [1, 0] })", "render.overlays.gln_color"},
+        {R"({ "gln_loop": true })", "render.overlays.gln_loop: unknown key"},
+    };
+    for (const auto& [overlays, message] : cases) {
+        INFO(overlays);
+        writeLoopScene(dir.path(), overlays, 1);
+        const e2e::Run r = e2e::runDgvIn(dir.path(), "-q render ball.json --out o");
+        CHECK(r.exitCode == 2);
+        CHECK_THAT(r.err, Catch::Contains(message));
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+        CHECK_FALSE(std::filesystem::exists(dir.path() / "o"));
+    }
+    // Parsed values (sRGB colour to linear).
+    const SceneDesc s = parseScene(R"({ "objects": [ { "primitive": { "type": "sphere" } } ],
+        "render": { "overlays": { "gln_loops": true, "gln_loop_set": "coarse", "gln_color": [1, 0, 0.5], "line_width": 3 } } })",
+                                   dir.path() / "p.json");
+    CHECK(s.render.overlayGlnLoops);
+    CHECK(s.render.overlayGlnLoopSet == "coarse");
+    CHECK(s.render.overlayGlnColour.x() == 1.0);
+    CHECK(s.render.overlayGlnColour.y() == 0.0);
+    CHECK(s.render.overlayGlnColour.z() == Approx(0.21404114).epsilon(1e-6));
+    CHECK(s.render.overlayLineWidth == 3.0);
+    const SceneDesc d = parseScene(R"({ "objects": [ { "primitive": { "type": "sphere" } } ] })", dir.path() / "d.json");
+    CHECK_FALSE(d.render.overlayGlnLoops);
+    CHECK(d.render.overlayGlnLoopSet == "contact");
+    CHECK(d.render.overlayLineWidth == 1.5);
+}
+
+// Sphere colliders are drawn (src/app/collider_draw.cpp): a static box beside a sphere collider,
+// the camera looking at the sphere's centre. With the collider the centre pixel is the
+// collider's grey, lit (R, G and B within the albedo's 0.42-0.47 spread of each other); without
+// it that pixel is empty (transparent background).
+TEST_CASE("colliders: a sphere collider is drawn where it is", "[render][e2e]") {
+    test::TempDir dir("sphere_collider");
+    auto write = [&](const std::string& name, bool collider) {
+        std::ofstream(dir.path() / name) << R"({ "name": "s", "frames": { "start": 1, "end": 1, "fps": 24 },
+  "objects": [ { "name": "box", "primitive": { "type": "box", "size": [0.3, 0.3, 0.3] }, "resolution": 6,
+                 "transform": { "translate": [-0.9, 0.5, 0] }, "color": [0.8, 0.1, 0.1] } ],
+  "colliders": [ )" << (collider ? R"({ "type": "sphere", "centre": [0.3, 0.5, 0], "radius": 0.4 })" : "")
+                                         << R"( ],
+  "camera": { "type": "look_at", "eye": [0.3, 0.5, 3], "target": [0.3, 0.5, 0], "fov": 50 },
+  "render": { "width": 96, "height": 96, "supersample": 1, "ground": false, "transparent": true } })";
+    };
+    write("with.json", true);
+    write("without.json", false);
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q render with.json --out a").exitCode == 0);
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q render without.json --out b").exitCode == 0);
+    const Image with = readPng(dir.path() / "a" / "s.0001.png");
+    const Image without = readPng(dir.path() / "b" / "s.0001.png");
+    const auto centre = with.pixel(48, 48);
+    CHECK(centre[3] == 65535);                 // opaque: something is drawn there
+    CHECK(without.pixel(48, 48)[3] == 0);      // and nothing without the collider
+    const int lo = std::min({centre[0], centre[1], centre[2]}), hi = std::max({centre[0], centre[1], centre[2]});
+    CHECK(lo > 0);
+    CHECK(hi - lo < 0.15 * hi);                // grey, not the box's red
+    // A pixel inside the sphere's silhouette (radius 0.4 at distance 3, fov 50: 13.8 px) but off
+    // its centre, and one outside it.
+    CHECK(with.pixel(48 + 12, 48)[3] == 65535);
+    CHECK(with.pixel(48 + 24, 48)[3] == 0);
 }
