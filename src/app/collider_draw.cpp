@@ -23,6 +23,15 @@ std::vector<DrawMesh> colliderDrawMeshes(const SceneDesc& scene) {
             out.push_back(std::move(m));
             continue;
         }
+        if (c.type == ColliderType::Mesh && c.worldMesh) {
+            DrawMesh m;
+            m.positions = c.worldMesh->vertices;
+            m.triangles = c.worldMesh->triangles;
+            m.colour = colliderColour();
+            m.creasePositions = m.positions;
+            out.push_back(std::move(m));
+            continue;
+        }
         if (c.type != ColliderType::LevelSet || !c.levelSet) continue;
         const TriangleMesh local = levelSetMesh(*c.levelSet);
         const Mat3 A = c.transform.linear();

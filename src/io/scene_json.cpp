@@ -1,6 +1,7 @@
 #include "io/scene_json.hpp"
 
 #include "base/errors.hpp"
+#include "io/mesh_import.hpp"
 #include "io/vdb_read.hpp"
 
 #include <Eigen/Geometry>
@@ -506,10 +507,34 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 c.fail("file", e.what());
             }
         } else {
+            // Imported and turned into a signed-distance grid here, so a bad mesh stops every
+            // command before anything is written.
             d.type = ColliderType::Mesh;
             if (!c.has("mesh")) c.fail("mesh", "missing; a mesh collider needs a mesh file");
             d.meshPath = resolveInput(sceneDir, c.string("mesh", "")).string();
             c.object("transform", [&](ObjectReader& t) { d.transform = readTransform(t); });
+            d.meshVoxelSize = c.number("voxel_size", 0, 0, HUGE_VAL);
+            const Mat3 A = d.transform.linear();
+            if (!(std::abs(A.determinant()) > 0)) c.fail("transform", "the transform flattens the mesh (a zero scale)");
+            try {
+                TriangleMesh mesh = importMesh(d.meshPath);
+                transformMesh(mesh, A, d.transform.translate);
+                const MeshReport report = analyseMesh(mesh);
+                if (!report.closed || !report.manifold)
+                    throw InputError(d.meshPath, "",
+                                     "a mesh collider must be closed and consistently oriented (" +
+                                         std::to_string(report.boundaryEdges) + " open edges, " +
+                                         std::to_string(report.nonManifoldEdges) +
+                                         " non-manifold edges): its inside is what bodies are kept out of");
+                if (!(report.signedVolume > 0))
+                    throw InputError(d.meshPath, "", "the mesh is inside out (negative volume); flip its faces");
+                const Vec3 extent = report.bounds.size();
+                const Real voxel = d.meshVoxelSize > 0 ? d.meshVoxelSize : extent.maxCoeff() / 128;
+                d.levelSet = std::make_shared<const SdfGrid>(meshLevelSet(mesh, voxel, 3, d.meshPath));
+                d.worldMesh = std::make_shared<const TriangleMesh>(std::move(mesh));
+            } catch (const InputError& e) {
+                c.fail("mesh", e.what());
+            }
         }
         d.friction = c.number("friction", d.friction, 0, 1);
         d.restitution = c.number("restitution", d.restitution, 0, 1);

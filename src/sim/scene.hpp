@@ -6,6 +6,7 @@
 
 #include "base/types.hpp"
 #include "geom/sdf_grid.hpp"
+#include "geom/triangle_mesh.hpp"
 #include "geom/voxelise.hpp"
 
 #include <memory>
@@ -103,8 +104,12 @@ struct ColliderDesc {
     TransformDesc transform;                ///< mesh, levelset (levelset: uniform scale only)
     std::string levelSetPath;               ///< levelset: the .vdb file (absolute)
     std::string levelSetGrid;               ///< levelset: grid name; empty: the first level set
-    /// levelset: the grid, loaded by the scene reader (io/scene_json.cpp; never null after it)
+    /// levelset: the grid, loaded by the scene reader (io/scene_json.cpp; never null after it);
+    /// mesh: the signed distance to the transformed mesh, in world space (identity transform)
     std::shared_ptr<const SdfGrid> levelSet;
+    Real meshVoxelSize = 0;                 ///< mesh: the level set's voxel; 0: longest edge / 128
+    /// mesh: the imported mesh with `transform` applied (world space), for drawing
+    std::shared_ptr<const TriangleMesh> worldMesh;
     Real friction = 0.5;                    ///< 0: slip, 1: sticky
     Real restitution = 0.0;                 ///< elastic bounce, 0..1
 };

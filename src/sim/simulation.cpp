@@ -41,8 +41,12 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
                 c.radius = d.radius;
                 break;
             case ColliderType::Mesh:
-                throw InputError(scene.path, "colliders[" + std::to_string(i) + "].type",
-                                 "mesh colliders are not simulated yet; use a ground plane or a sphere");
+                if (!d.levelSet)  // a SceneDesc built by hand without loading the mesh
+                    throw InputError(scene.path, "colliders[" + std::to_string(i) + "].mesh",
+                                     "the mesh " + d.meshPath + " was not loaded");
+                c.kind = Collider::Kind::Distance;
+                c.distance = levelSetDistance(d.levelSet, TransformDesc{});  // already in world space
+                break;
             case ColliderType::LevelSet:
                 if (!d.levelSet)  // a SceneDesc built by hand without loading the file
                     throw InputError(scene.path, "colliders[" + std::to_string(i) + "].file",
