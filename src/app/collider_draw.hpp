@@ -1,8 +1,8 @@
 #pragma once
 // The scene's colliders as surfaces to draw: spheres (a fine UV sphere), meshes (the imported
 // mesh, transformed) and level sets (their zero isosurface, io/vdb_mesh.hpp, moved by the
-// collider's transform). Ground planes are not
-// drawn here: the renderer's own ground stands in for them.
+// collider's transform). Ground planes are not drawn here: the renderer's own ground stands
+// in for them.
 
 #include "render/renderer.hpp"
 #include "sim/scene.hpp"
