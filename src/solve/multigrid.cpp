@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <type_traits>
 
 namespace dgv {
 
@@ -94,13 +95,189 @@ Sums columnDots(const Real* a, const Real* b, Index rows, int cols) {
         4096);
 }
 
+/// Fixed-block (4096 rows) reduction helpers of conjugateGradients: the same sums, in the same
+/// order, as columnDots after the unfused loops.
+template <int C>
+Sums combineSums(Sums x, const Sums& y) {
+    for (std::size_t c = 0; c < kMaxCols; ++c) x[c] += y[c];
+    return x;
+}
+
 struct Level {
     SparseRows A;
     std::vector<Real> invDiag;
     Real lmin = 0, lmax = 0;
     SparseRows P;  ///< prolongation to this level from the next coarser one: rows = A.rows
     SparseRows R;  ///< P^T: rows = coarse rows
-    mutable std::vector<Real> r, d, t;  ///< work arrays (rows x cols)
+    /// A's values as floats when every one of them is exactly a float (the lattice Laplacian:
+    /// small integers), else empty: the same products from half the value bytes.
+    std::vector<float> valueF;
+    mutable std::vector<Real> r, d, d2, t;  ///< work arrays (rows x cols)
+};
+
+/// acc = row i of M times x (C interleaved columns), entries in column order: the same
+/// floating-point operations as multiplyRowsFixed. V: the value type (float only where exact).
+template <int C, typename V>
+inline void rowTimes(const int* start, const int* column, const V* value, Index i, const Real* x,
+                     Real* acc) {
+    for (int c = 0; c < C; ++c) acc[c] = 0;
+    const int end = start[i + 1];
+    for (int k = start[i]; k < end; ++k) {
+        const Real v = Real(value[k]);
+        const Real* xr = x + std::ptrdiff_t(column[k]) * C;
+        for (int c = 0; c < C; ++c) acc[c] += v * xr[c];
+    }
+}
+
+/// Calls f.template run<C, V>() with the level's column count and value type.
+template <typename F>
+void dispatch(const Level& L, int cols, F&& f) {
+    const bool fl = !L.valueF.empty();
+    switch (cols) {
+        case 1: fl ? f.template run<1, float>() : f.template run<1, Real>(); break;
+        case 2: fl ? f.template run<2, float>() : f.template run<2, Real>(); break;
+        case 3: fl ? f.template run<3, float>() : f.template run<3, Real>(); break;
+        default: fl ? f.template run<4, float>() : f.template run<4, Real>(); break;
+    }
+}
+
+/// The fused passes of the V-cycle on one level. Each computes exactly the operations of the
+/// unfused sequence (multiply into t, then the vector updates), row by row, so the results are
+/// bit-identical to it; a pass never writes an array whose other rows it reads.
+struct SmoothPasses {
+    const Level& L;
+    int cols;
+    const Real* b;
+    Real* x;
+    const Real* xc = nullptr;  ///< coarse correction (prolongation pass)
+    int degree = 2;
+    Real theta = 0, sigma = 0, delta = 0;
+    enum class Kind { Pre, Post, Residual, Prolong } kind = Kind::Pre;
+
+    template <int C, typename V>
+    const V* values() const {
+        if constexpr (std::is_same_v<V, float>) return L.valueF.data();
+        else return L.A.value.data();
+    }
+
+    /// Chebyshev steps 1..degree after d (step 0) is set in L.d; x already holds the start
+    /// (or is assigned on the first step when `zero`).
+    template <int C, typename V>
+    void chebyshev(bool zero) {
+        const int* st = L.A.start.data();
+        const int* col = L.A.column.data();
+        const V* val = values<C, V>();
+        const Real* invDiag = L.invDiag.data();
+        Real rho = Real(1) / sigma;
+        Real* d = L.d.data();
+        Real* dn = L.d2.data();
+        Real* r = L.r.data();
+        bool first = true;  // x not yet touched by any step
+        for (int step = 1; step <= degree; ++step) {
+            if (step == degree) {
+                // x += d (x = d for a zero start with degree 1)
+                Real* xx = x;
+                const bool assign = zero && first;
+                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
+                    for (std::size_t k = at(b0) * C; k < at(e0) * C; ++k)
+                        xx[k] = assign ? d[k] : xx[k] + d[k];
+                }, kRowGrain);
+                break;
+            }
+            const Real rhoNew = Real(1) / (2 * sigma - rho);
+            const Real c1 = rhoNew * rho, c2 = 2 * rhoNew / delta;
+            const bool assign = zero && first;
+            const bool last = step + 1 == degree;
+            Real* xx = x;
+            parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
+                for (Index i = b0; i < e0; ++i) {
+                    Real t[C];
+                    rowTimes<C, V>(st, col, val, i, d, t);
+                    for (int c = 0; c < C; ++c) {
+                        const std::size_t k = at(i) * C + std::size_t(c);
+                        const Real rk = r[k] - invDiag[i] * t[c];
+                        const Real dk = c1 * d[k] + c2 * rk;
+                        Real xk = assign ? d[k] : xx[k] + d[k];
+                        if (last) {
+                            xx[k] = xk + dk;  // r and d are not needed after the last step
+                        } else {
+                            xx[k] = xk;
+                            r[k] = rk;
+                            dn[k] = dk;
+                        }
+                    }
+                }
+            }, kRowGrain);
+            std::swap(d, dn);
+            rho = rhoNew;
+            first = false;
+            if (last) break;
+        }
+        // keep L.d / L.d2 pointing at distinct buffers for the next call
+    }
+
+    template <int C, typename V>
+    void run() {
+        const int* st = L.A.start.data();
+        const int* col = L.A.column.data();
+        const V* val = values<C, V>();
+        const Real* invDiag = L.invDiag.data();
+        Real* r = L.r.data();
+        Real* d = L.d.data();
+        Real* t = L.t.data();
+        const Real* bb = b;
+        Real* xx = x;
+        switch (kind) {
+            case Kind::Pre:
+                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
+                    for (Index i = b0; i < e0; ++i)
+                        for (int c = 0; c < C; ++c) {
+                            const std::size_t k = at(i) * C + std::size_t(c);
+                            r[k] = invDiag[i] * (bb[k] - Real(0));
+                            d[k] = r[k] / theta;
+                        }
+                }, kRowGrain);
+                chebyshev<C, V>(true);
+                break;
+            case Kind::Post:
+                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
+                    for (Index i = b0; i < e0; ++i) {
+                        Real ax[C];
+                        rowTimes<C, V>(st, col, val, i, xx, ax);
+                        for (int c = 0; c < C; ++c) {
+                            const std::size_t k = at(i) * C + std::size_t(c);
+                            r[k] = invDiag[i] * (bb[k] - ax[c]);
+                            d[k] = r[k] / theta;
+                        }
+                    }
+                }, kRowGrain);
+                chebyshev<C, V>(false);
+                break;
+            case Kind::Residual:
+                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
+                    for (Index i = b0; i < e0; ++i) {
+                        Real ax[C];
+                        rowTimes<C, V>(st, col, val, i, xx, ax);
+                        for (int c = 0; c < C; ++c) t[at(i) * C + std::size_t(c)] = bb[at(i) * C + std::size_t(c)] - ax[c];
+                    }
+                }, kRowGrain);
+                break;
+            case Kind::Prolong: {
+                const int* ps = L.P.start.data();
+                const int* pc = L.P.column.data();
+                const Real* pv = L.P.value.data();
+                const Real* cc = xc;
+                parallelForBlocks(L.P.rows, [&](Index b0, Index e0) {
+                    for (Index i = b0; i < e0; ++i) {
+                        Real px[C];
+                        rowTimes<C, Real>(ps, pc, pv, i, cc, px);
+                        for (int c = 0; c < C; ++c) xx[at(i) * C + std::size_t(c)] += px[c];
+                    }
+                }, kRowGrain);
+                break;
+            }
+        }
+    }
 };
 
 /// Spectral radius of D^-1 A: 20 power iterations from a fixed pseudo-random vector, times
@@ -136,6 +313,60 @@ Real spectralRadius(const SparseRows& A, const std::vector<Real>& invDiag) {
     return std::min(gershgorin, Real(1.1) * estimate > 0 ? Real(1.1) * estimate : gershgorin);
 }
 
+/// q = A p and the column dots p.q in one pass (fixed 4096-row blocks, as columnDots).
+template <int C>
+Sums multiplyDotFixed(const SparseRows& A, const Real* p, Real* q) {
+    const int* st = A.start.data();
+    const int* col = A.column.data();
+    const Real* val = A.value.data();
+    return parallelReduce(
+        A.rows, Sums{0, 0, 0, 0},
+        [&](Sums& s, Index i) {
+            Real acc[C];
+            rowTimes<C, Real>(st, col, val, i, p, acc);
+            for (int c = 0; c < C; ++c) {
+                const std::size_t k = at(i) * C + std::size_t(c);
+                q[k] = acc[c];
+                s[std::size_t(c)] += p[k] * q[k];
+            }
+        },
+        combineSums<C>, 4096);
+}
+
+/// X += alpha P, R -= alpha Q and the column dots R.R in one pass.
+template <int C>
+Sums updateDotFixed(Index n, Real* X, Real* R, const Real* P, const Real* Q, const Sums& alpha) {
+    return parallelReduce(
+        n, Sums{0, 0, 0, 0},
+        [&](Sums& s, Index i) {
+            for (int c = 0; c < C; ++c) {
+                const std::size_t k = at(i) * C + std::size_t(c);
+                X[k] += alpha[std::size_t(c)] * P[k];
+                R[k] -= alpha[std::size_t(c)] * Q[k];
+                s[std::size_t(c)] += R[k] * R[k];
+            }
+        },
+        combineSums<C>, 4096);
+}
+
+Sums multiplyDot(const SparseRows& A, const Real* p, Real* q, int cols) {
+    switch (cols) {
+        case 1: return multiplyDotFixed<1>(A, p, q);
+        case 2: return multiplyDotFixed<2>(A, p, q);
+        case 3: return multiplyDotFixed<3>(A, p, q);
+        default: return multiplyDotFixed<4>(A, p, q);
+    }
+}
+
+Sums updateDot(Index n, Real* X, Real* R, const Real* P, const Real* Q, const Sums& alpha, int cols) {
+    switch (cols) {
+        case 1: return updateDotFixed<1>(n, X, R, P, Q, alpha);
+        case 2: return updateDotFixed<2>(n, X, R, P, Q, alpha);
+        case 3: return updateDotFixed<3>(n, X, R, P, Q, alpha);
+        default: return updateDotFixed<4>(n, X, R, P, Q, alpha);
+    }
+}
+
 }  // namespace
 
 void multiply(const SparseRows& A, const Real* x, Real* y, int cols) {
@@ -150,42 +381,20 @@ struct AggregationMultigrid::Impl {
     mutable std::vector<std::vector<Real>> rhs, sol;  ///< per level b and x
     double seconds = 0;
 
-    /// Chebyshev smoothing of level l on x (zero: x starts at 0).
+    /// Chebyshev smoothing of level l on x (zero: x starts at 0), fused passes (SmoothPasses).
     void smooth(const Level& L, const Real* b, Real* x, int cols, bool zero) const {
         const std::size_t n = at(L.A.rows) * std::size_t(cols);
         L.r.resize(n);
         L.d.resize(n);
+        L.d2.resize(n);
         L.t.resize(n);
-        const Real theta = Real(0.5) * (L.lmax + L.lmin), delta = Real(0.5) * (L.lmax - L.lmin);
-        const Real sigma = theta / delta;
-        Real rho = Real(1) / sigma;
-        if (!zero) multiply(L.A, x, L.t.data(), cols);
-        parallelFor(L.A.rows, [&](Index i) {
-            for (int c = 0; c < cols; ++c) {
-                const std::size_t k = at(i) * std::size_t(cols) + std::size_t(c);
-                L.r[k] = L.invDiag[at(i)] * (b[k] - (zero ? Real(0) : L.t[k]));
-                L.d[k] = L.r[k] / theta;
-            }
-        }, kRowGrain);
-        for (int step = 1; step <= settings.smootherDegree; ++step) {
-            if (zero && step == 1) {
-                parallelFor(Index(n), [&](Index k) { x[k] = L.d[at(k)]; }, 4 * kRowGrain);
-            } else {
-                parallelFor(Index(n), [&](Index k) { x[k] += L.d[at(k)]; }, 4 * kRowGrain);
-            }
-            if (step == settings.smootherDegree) break;
-            multiply(L.A, L.d.data(), L.t.data(), cols);
-            const Real rhoNew = Real(1) / (2 * sigma - rho);
-            const Real c1 = rhoNew * rho, c2 = 2 * rhoNew / delta;
-            parallelFor(L.A.rows, [&](Index i) {
-                for (int c = 0; c < cols; ++c) {
-                    const std::size_t k = at(i) * std::size_t(cols) + std::size_t(c);
-                    L.r[k] -= L.invDiag[at(i)] * L.t[k];
-                    L.d[k] = c1 * L.d[k] + c2 * L.r[k];
-                }
-            }, kRowGrain);
-            rho = rhoNew;
-        }
+        SmoothPasses f{L, cols, b, x};
+        f.degree = settings.smootherDegree;
+        f.theta = Real(0.5) * (L.lmax + L.lmin);
+        f.delta = Real(0.5) * (L.lmax - L.lmin);
+        f.sigma = f.theta / f.delta;
+        f.kind = zero ? SmoothPasses::Kind::Pre : SmoothPasses::Kind::Post;
+        dispatch(L, cols, f);
     }
 
     void cycle(std::size_t l, const Real* b, Real* x, int cols) const {
@@ -201,8 +410,9 @@ struct AggregationMultigrid::Impl {
         }
         smooth(L, b, x, cols, true);
         // residual into L.t, restricted into the next level's right-hand side
-        multiply(L.A, x, L.t.data(), cols);
-        parallelFor(Index(L.t.size()), [&](Index k) { L.t[at(k)] = b[k] - L.t[at(k)]; }, 4 * kRowGrain);
+        SmoothPasses res{L, cols, b, x};
+        res.kind = SmoothPasses::Kind::Residual;
+        dispatch(L, cols, res);
         const Level& C = levels[l + 1];
         std::vector<Real>& bc = rhs[l + 1];
         std::vector<Real>& xc = sol[l + 1];
@@ -210,8 +420,10 @@ struct AggregationMultigrid::Impl {
         xc.resize(bc.size());
         multiplyRows(L.R.start, L.R.column, L.R.value, L.R.rows, L.t.data(), bc.data(), cols);
         cycle(l + 1, bc.data(), xc.data(), cols);
-        multiplyRows(L.P.start, L.P.column, L.P.value, L.P.rows, xc.data(), L.t.data(), cols);
-        parallelFor(Index(L.t.size()), [&](Index k) { x[k] += L.t[at(k)]; }, 4 * kRowGrain);
+        SmoothPasses pro{L, cols, b, x};
+        pro.kind = SmoothPasses::Kind::Prolong;
+        pro.xc = xc.data();
+        dispatch(L, cols, pro);
         smooth(L, b, x, cols, false);
     }
 };
@@ -235,6 +447,9 @@ AggregationMultigrid::AggregationMultigrid(const SparseRows& A, const std::vecto
             for (int k = L.A.start[at(i)]; k < L.A.start[at(i) + 1]; ++k)
                 if (L.A.column[static_cast<std::size_t>(k)] == i) L.invDiag[at(i)] = Real(1) / L.A.value[static_cast<std::size_t>(k)];
         for (Index i = 0; i < n; ++i) DGV_CHECK(L.invDiag[at(i)] > 0);
+        if (std::all_of(L.A.value.begin(), L.A.value.end(),
+                        [](Real v) { return Real(static_cast<float>(v)) == v; }))
+            L.valueF.assign(L.A.value.begin(), L.A.value.end());
         const Real rho = spectralRadius(L.A, L.invDiag);
         L.lmax = rho;
         L.lmin = rho / settings.eigenRatio;
@@ -357,20 +572,15 @@ SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* 
     P = Z;
     Sums rz = columnDots(R.data(), Z.data(), n, cols);
     for (int it = 1; it <= maxIterations; ++it) {
-        multiply(A, P.data(), Q.data(), cols);
-        const Sums pq = columnDots(P.data(), Q.data(), n, cols);
+        // fused passes: q = A p with p.q, then the updates of X and R with R.R (the same sums,
+        // in the same order, as separate loops and columnDots)
+        const Sums pq = multiplyDot(A, P.data(), Q.data(), cols);
         Sums alpha{0, 0, 0, 0};
         for (int c = 0; c < cols; ++c)
             alpha[std::size_t(c)] = pq[std::size_t(c)] > 0 ? rz[std::size_t(c)] / pq[std::size_t(c)] : Real(0);
-        parallelFor(n, [&](Index i) {
-            for (int c = 0; c < cols; ++c) {
-                const std::size_t k = at(i) * std::size_t(cols) + std::size_t(c);
-                X[k] += alpha[std::size_t(c)] * P[k];
-                R[k] -= alpha[std::size_t(c)] * Q[k];
-            }
-        }, kRowGrain);
+        const Sums rr = updateDot(n, X.data(), R.data(), P.data(), Q.data(), alpha, cols);
         report.iterations = it;
-        report.residual = std::sqrt(total(columnDots(R.data(), R.data(), n, cols))) / scale;
+        report.residual = std::sqrt(total(rr)) / scale;
         if (!std::isfinite(report.residual)) {
             report.diverged = true;
             break;

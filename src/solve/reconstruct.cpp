@@ -221,9 +221,9 @@ SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
                 own = std::make_unique<PoissonSolver>(lat, fixed);
                 solver = own.get();
             }
-            if (cold || settings.startFromPath) solver->pathPositions(lat, e, frames, positions);
             report = solver->solve(lat, e, frames, positions, settings.tolerance,
-                                   std::min(settings.maxIterations, 1000));
+                                   std::min(settings.maxIterations, 1000),
+                                   cold || settings.startFromPath);
             if (settings.wall && report.converged) {
                 GatherSettings g = settings.gather();
                 g.method = GatherMethod::Sor;

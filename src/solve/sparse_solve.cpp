@@ -30,6 +30,7 @@ struct PoissonSolver::Impl {
     std::vector<Index> layerStart;        ///< offsets of the BFS layers in treeOrder
     mutable CgWorkspace work;             ///< reused by every solve (not reentrant)
     mutable std::vector<Real> b, x, scale2;
+    mutable std::array<std::vector<Vec3>, 3> forward;  ///< solve()'s edge steps, reused
 };
 
 PoissonSolver::PoissonSolver(const Lattice& lat, const std::vector<unsigned char>& fixed)
@@ -119,20 +120,49 @@ bool PoissonSolver::matches(const Lattice& lat, const std::vector<unsigned char>
     return true;
 }
 
+namespace {
+
+/// forward[a][p] = positionStep(p, +a) for every point with a +a neighbour: each edge's step
+/// once (positionStep is antisymmetric bit for bit: the step back is the exact negation).
+void forwardSteps(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                  std::array<std::vector<Vec3>, 3>& forward) {
+    for (std::size_t a = 0; a < 3; ++a) forward[a].resize(at(lat.size()));
+    parallelFor(lat.size(), [&](Index p) {
+        for (int a = 0; a < 3; ++a) {
+            const int slot = 2 * a + 1;
+            if (lat.neighbours[at(p)][at(slot)] != kNoPoint)
+                forward[std::size_t(a)][at(p)] = positionStep(lat, e, frames, p, slot);
+        }
+    });
+}
+
+/// The Path positions from the forward steps (the same values as from positionStep).
+void pathFromSteps(const PoissonSolver::Impl& m, const std::array<std::vector<Vec3>, 3>& forward,
+                   std::vector<Vec3>& positions) {
+    for (std::size_t l = 1; l + 1 < m.layerStart.size(); ++l) {
+        const Index begin = m.layerStart[l], count = m.layerStart[l + 1] - begin;
+        parallelFor(count, [&](Index i) {
+            const Index q = m.treeOrder[at(begin + i)];
+            const Index p = m.treeParent[at(q)];
+            const int slot = m.treeSlot[at(q)];
+            const std::size_t axis = std::size_t(slot / 2);
+            positions[at(q)] = (slot & 1) ? Vec3(positions[at(p)] + forward[axis][at(p)])
+                                          : Vec3(positions[at(p)] + -forward[axis][at(q)]);
+        }, 512);
+    }
+}
+
+}  // namespace
+
 void PoissonSolver::pathPositions(const Lattice& lat, const EdgeTransports& e,
                                   const std::vector<Mat3>& frames,
                                   std::vector<Vec3>& positions) const {
     const Impl& m = *mImpl;
     DGV_CHECK_EQ(lat.size(), m.points);
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
-    for (std::size_t l = 1; l + 1 < m.layerStart.size(); ++l) {
-        const Index begin = m.layerStart[l], count = m.layerStart[l + 1] - begin;
-        parallelFor(count, [&](Index i) {
-            const Index q = m.treeOrder[at(begin + i)];
-            const Index p = m.treeParent[at(q)];
-            positions[at(q)] = positions[at(p)] + positionStep(lat, e, frames, p, m.treeSlot[at(q)]);
-        }, 512);
-    }
+    DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
+    forwardSteps(lat, e, frames, m.forward);
+    pathFromSteps(m, m.forward, positions);
 }
 
 namespace {
@@ -194,13 +224,15 @@ SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&
 
 SolveReport PoissonSolver::solve(const Lattice& lat, const EdgeTransports& e,
                                  const std::vector<Mat3>& frames, std::vector<Vec3>& positions,
-                                 Real tolerance, int maxIterations) const {
+                                 Real tolerance, int maxIterations, bool fromPath) const {
     DGV_CHECK_EQ(lat.size(), mImpl->points);
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
-    return solvePoisson(
-        *mImpl, lat, [&](Index p, int slot) { return positionStep(lat, e, frames, p, slot); }, positions,
-        tolerance, maxIterations);
+    // Each edge's step once, then the solve from the steps (the same values as from
+    // positionStep, which is antisymmetric bit for bit).
+    forwardSteps(lat, e, frames, mImpl->forward);
+    if (fromPath) pathFromSteps(*mImpl, mImpl->forward, positions);
+    return solveSteps(lat, mImpl->forward, positions, tolerance, maxIterations);
 }
 
 SolveReport PoissonSolver::solveSteps(const Lattice& lat, const std::array<std::vector<Vec3>, 3>& forward,

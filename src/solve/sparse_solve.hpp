@@ -45,9 +45,11 @@ public:
     /// the values in `positions` (#P, in/out; fixed points keep theirs). converged = residual
     /// <= tolerance within maxIterations conjugate-gradient iterations (each one V-cycle).
     /// Keeps its work arrays between calls: not for concurrent calls on one solver.
+    /// fromPath: start from pathPositions() instead (the fixed points must hold their values),
+    /// sharing the edge steps with it; the same result as pathPositions() then solve().
     SolveReport solve(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
                       std::vector<Vec3>& positions, Real tolerance = Real(1e-8),
-                      int maxIterations = 200) const;
+                      int maxIterations = 200, bool fromPath = false) const;
 
     /// The same least-squares solve with the edge steps given directly: forward[a][p] is the
     /// step x(p + e_a) - x(p) along axis a from point p (entries of points without a +a
@@ -61,7 +63,8 @@ public:
     /// their values in `positions` (#P, in/out): x(q) = x(parent) + D_parent,q along the
     /// breadth-first tree from the fixed points (point order, slot order), the tree cached at
     /// construction and integrated one BFS layer at a time in parallel. Identical to
-    /// integratePositionsAlongTree with the same fixed set.
+    /// integratePositionsAlongTree with the same fixed set. Computes every edge's step first, into
+    /// the solver's work arrays (not for concurrent calls on one solver, like solve()).
     void pathPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
                        std::vector<Vec3>& positions) const;
 
