@@ -41,19 +41,17 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
                 c.radius = d.radius;
                 break;
             case ColliderType::Mesh:
-                if (!d.levelSet)  // a SceneDesc built by hand without loading the mesh
-                    throw InputError(scene.path, "colliders[" + std::to_string(i) + "].mesh",
-                                     "the mesh " + d.meshPath + " was not loaded");
-                c.kind = Collider::Kind::Distance;
-                c.distance = levelSetDistance(d.levelSet, TransformDesc{});  // already in world space
-                break;
-            case ColliderType::LevelSet:
+            case ColliderType::LevelSet: {
+                const bool mesh = d.type == ColliderType::Mesh;
                 if (!d.levelSet)  // a SceneDesc built by hand without loading the file
-                    throw InputError(scene.path, "colliders[" + std::to_string(i) + "].file",
-                                     "the level set " + d.levelSetPath + " was not loaded");
+                    throw InputError(scene.path, "colliders[" + std::to_string(i) + (mesh ? "].mesh" : "].file"),
+                                     (mesh ? "the mesh " + d.meshPath : "the level set " + d.levelSetPath) +
+                                         " was not loaded");
                 c.kind = Collider::Kind::Distance;
-                c.distance = levelSetDistance(d.levelSet, d.transform);
+                // a mesh's distance grid is built in world space; a level set is placed by its transform
+                c.distance = levelSetDistance(d.levelSet, mesh ? TransformDesc{} : d.transform);
                 break;
+            }
         }
         mColliders.push_back(std::move(c));
     }

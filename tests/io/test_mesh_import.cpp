@@ -44,6 +44,16 @@ std::string problemOf(const fs::path& p, const std::string& name = "") {
     return "no error";
 }
 
+/// "where: problem" of the InputError, or "no error".
+std::string whereOf(const fs::path& p) {
+    try {
+        import(p);
+    } catch (const InputError& e) {
+        return e.where() + ": " + e.problem();
+    }
+    return std::string("no error");
+}
+
 const char* kCubeObj =
     "# unit cube, quads\n"
     "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
@@ -217,14 +227,6 @@ TEST_CASE("mesh_import: OFF files are checked in full before assimp reads them",
     CHECK(import(write(dir.path(), "tet1.off", "OFF 4 4 0\n# a comment\n" + verts + faces)).triangleCount() == 4);
     CHECK(import(kModels / "OFF/Cube.off").triangleCount() == 12);
 
-    auto whereOf = [&](const fs::path& p) {
-        try {
-            import(p);
-        } catch (const InputError& e) {
-            return e.where() + ": " + e.problem();
-        }
-        return std::string("no error");
-    };
     // The fuzzer's crash: a fourth face with 0 vertices followed by junk.
     CHECK(whereOf(write(dir.path(), "zero.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n3 0 1 3\n3 0 3 2\n0v 0 0\n")) ==
           "line 10: expected a face's vertex count, got '0v'");
@@ -259,14 +261,6 @@ TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]
     CHECK(import(write(dir.path(), "crlf.ply", crlf)).triangleCount() == 4);
     CHECK(import(kModels / "PLY/cube.ply").triangleCount() == 12);
 
-    auto whereOf = [&](const fs::path& p) {
-        try {
-            import(p);
-        } catch (const InputError& e) {
-            return e.where() + ": " + e.problem();
-        }
-        return std::string("no error");
-    };
     // The fuzzer's input: the header runs into garbage and the file ends without end_header.
     CHECK(whereOf(write(dir.path(), "fuzz.ply", head + "en3\n3 0 3 2\n3 1 2 3\n")) ==
           "line 10: unexpected 'en3' in the PLY header (expected element, property, comment or end_header)");
