@@ -498,8 +498,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             c.object("transform", [&](ObjectReader& t) {
                 d.transform = readTransform(t);
                 const Vec3& k = d.transform.scale;
-                if (k.x() != k.y() || k.x() != k.z())
-                    t.fail("scale", "a levelset collider takes a uniform scale only (a number)");
+                if (k.x() != k.y() || k.x() != k.z() || !(k.x() > 0))
+                    t.fail("scale", "a levelset collider takes a positive uniform scale only (a number)");
             });
             try {
                 d.levelSet = std::make_shared<const SdfGrid>(readVdbLevelSet(d.levelSetPath, d.levelSetGrid));

@@ -285,6 +285,9 @@ TEST_CASE("levelset collider: bad input names the file and the problem", "[io][v
                Catch::Contains(fogPath) && Catch::Contains("vec3s") && Catch::Contains("not float"));
     CHECK_THAT(error(R"({"type": "levelset", "file": "ball.vdb", "transform": {"scale": [1, 2, 1]}})"),
                Catch::Contains("colliders[0].transform.scale") && Catch::Contains("uniform"));
+    // a mirror would turn the distances' sign convention inside out
+    CHECK_THAT(error(R"({"type": "levelset", "file": "ball.vdb", "transform": {"scale": [-1, -1, -1]}})"),
+               Catch::Contains("colliders[0].transform.scale") && Catch::Contains("positive uniform"));
     CHECK_THAT(error(R"({"type": "levelset", "file": "ball.vdb", "mesh": "a.obj"})"), Catch::Contains("mesh"));
     CHECK(error(R"({"type": "levelset", "file": "ball.vdb", "transform": {"scale": 2}})") == "no error");
 }
