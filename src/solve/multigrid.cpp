@@ -103,6 +103,18 @@ Sums combineSums(Sums x, const Sums& y) {
     return x;
 }
 
+/// Work arrays of one level in the scalar type T of the V-cycle (rows x cols).
+template <typename T>
+struct Work {
+    std::vector<T> r, d, d2, t;
+    void resize(std::size_t n) {
+        r.resize(n);
+        d.resize(n);
+        d2.resize(n);
+        t.resize(n);
+    }
+};
+
 struct Level {
     SparseRows A;
     std::vector<Real> invDiag;
@@ -112,71 +124,124 @@ struct Level {
     /// A's values as floats when every one of them is exactly a float (the lattice Laplacian:
     /// small integers), else empty: the same products from half the value bytes.
     std::vector<float> valueF;
-    mutable std::vector<Real> r, d, d2, t;  ///< work arrays (rows x cols)
+    /// Every off-diagonal value is exactly -1 (the graph Laplacian): rows are products with the
+    /// diagonal and the columns only (UnitRows), the same operations without the value array.
+    bool unit = false;
+    std::vector<Real> diag;
+    /// The float V-cycle (MultigridSettings::floatCycle): A, D^-1, P and R rounded to float.
+    std::vector<float> valueR, invDiagR, diagR, pValueR, rValueR;
+    mutable Work<Real> wd;
+    mutable Work<float> wf;
+    template <typename T>
+    Work<T>& work() const {
+        if constexpr (std::is_same_v<T, float>) return wf;
+        else return wd;
+    }
+    template <typename T>
+    const T* invD() const {
+        if constexpr (std::is_same_v<T, float>) return invDiagR.data();
+        else return invDiag.data();
+    }
 };
 
-/// acc = row i of M times x (C interleaved columns), entries in column order: the same
-/// floating-point operations as multiplyRowsFixed. V: the value type (float only where exact).
-template <int C, typename V>
-inline void rowTimes(const int* start, const int* column, const V* value, Index i, const Real* x,
-                     Real* acc) {
-    for (int c = 0; c < C; ++c) acc[c] = 0;
-    const int end = start[i + 1];
-    for (int k = start[i]; k < end; ++k) {
-        const Real v = Real(value[k]);
-        const Real* xr = x + std::ptrdiff_t(column[k]) * C;
-        for (int c = 0; c < C; ++c) acc[c] += v * xr[c];
+/// Row products acc = row i of M times x (C interleaved columns), entries in column order,
+/// accumulated in T: the same floating-point operations as multiplyRowsFixed. V: the stored
+/// value type (float only where exact, or in the float V-cycle).
+template <typename V>
+struct ValuedRows {
+    const int* start;
+    const int* column;
+    const V* value;
+    template <int C, typename T>
+    inline void row(Index i, const T* x, T* acc) const {
+        for (int c = 0; c < C; ++c) acc[c] = 0;
+        const int end = start[i + 1];
+        for (int k = start[i]; k < end; ++k) {
+            const T v = T(value[k]);
+            const T* xr = x + std::ptrdiff_t(column[k]) * C;
+            for (int c = 0; c < C; ++c) acc[c] += v * xr[c];
+        }
     }
-}
+};
 
-/// Calls f.template run<C, V>() with the level's column count and value type.
-template <typename F>
+/// Rows whose off-diagonal values are all exactly -1: acc += (-1) x is exactly acc - x, so these
+/// are the operations of ValuedRows, bit for bit, without reading a value per entry.
+template <typename D>
+struct UnitRows {
+    const int* start;
+    const int* column;
+    const D* diag;
+    template <int C, typename T>
+    inline void row(Index i, const T* x, T* acc) const {
+        for (int c = 0; c < C; ++c) acc[c] = 0;
+        const int end = start[i + 1];
+        for (int k = start[i]; k < end; ++k) {
+            const int j = column[k];
+            const T* xr = x + std::ptrdiff_t(j) * C;
+            if (j == i) {
+                const T v = T(diag[i]);
+                for (int c = 0; c < C; ++c) acc[c] += v * xr[c];
+            } else {
+                for (int c = 0; c < C; ++c) acc[c] -= xr[c];
+            }
+        }
+    }
+};
+
+/// Calls f.template run<C>(rows) with the column count and the row products of level L's matrix
+/// for a V-cycle in T.
+template <typename T, typename F>
 void dispatch(const Level& L, int cols, F&& f) {
-    const bool fl = !L.valueF.empty();
-    switch (cols) {
-        case 1: fl ? f.template run<1, float>() : f.template run<1, Real>(); break;
-        case 2: fl ? f.template run<2, float>() : f.template run<2, Real>(); break;
-        case 3: fl ? f.template run<3, float>() : f.template run<3, Real>(); break;
-        default: fl ? f.template run<4, float>() : f.template run<4, Real>(); break;
+    auto go = [&](const auto& rows) {
+        switch (cols) {
+            case 1: f.template run<1>(rows); break;
+            case 2: f.template run<2>(rows); break;
+            case 3: f.template run<3>(rows); break;
+            default: f.template run<4>(rows); break;
+        }
+    };
+    const int* st = L.A.start.data();
+    const int* col = L.A.column.data();
+    if constexpr (std::is_same_v<T, float>) {
+        if (L.unit) go(UnitRows<float>{st, col, L.diagR.data()});
+        else go(ValuedRows<float>{st, col, L.valueR.data()});
+    } else {
+        if (L.unit) go(UnitRows<Real>{st, col, L.diag.data()});
+        else if (!L.valueF.empty()) go(ValuedRows<float>{st, col, L.valueF.data()});
+        else go(ValuedRows<Real>{st, col, L.A.value.data()});
     }
 }
 
-/// The fused passes of the V-cycle on one level. Each computes exactly the operations of the
-/// unfused sequence (multiply into t, then the vector updates), row by row, so the results are
-/// bit-identical to it; a pass never writes an array whose other rows it reads.
+/// The fused passes of the V-cycle on one level, in T (Real, or float for the float V-cycle).
+/// Each computes exactly the operations of the unfused sequence (multiply into t, then the
+/// vector updates), row by row, so the results are bit-identical to it; a pass never writes an
+/// array whose other rows it reads.
+template <typename T>
 struct SmoothPasses {
     const Level& L;
     int cols;
-    const Real* b;
-    Real* x;
-    const Real* xc = nullptr;  ///< coarse correction (prolongation pass)
+    const T* b;
+    T* x;
+    const T* xc = nullptr;  ///< coarse correction (prolongation pass)
     int degree = 2;
-    Real theta = 0, sigma = 0, delta = 0;
+    T theta = 0, sigma = 0, delta = 0;
     enum class Kind { Pre, Post, Residual, Prolong } kind = Kind::Pre;
 
-    template <int C, typename V>
-    const V* values() const {
-        if constexpr (std::is_same_v<V, float>) return L.valueF.data();
-        else return L.A.value.data();
-    }
-
-    /// Chebyshev steps 1..degree after d (step 0) is set in L.d; x already holds the start
-    /// (or is assigned on the first step when `zero`).
-    template <int C, typename V>
-    void chebyshev(bool zero) {
-        const int* st = L.A.start.data();
-        const int* col = L.A.column.data();
-        const V* val = values<C, V>();
-        const Real* invDiag = L.invDiag.data();
-        Real rho = Real(1) / sigma;
-        Real* d = L.d.data();
-        Real* dn = L.d2.data();
-        Real* r = L.r.data();
+    /// Chebyshev steps 1..degree after d (step 0) is set in the level's d; x already holds the
+    /// start (or is assigned on the first step when `zero`).
+    template <int C, typename Rows>
+    void chebyshev(const Rows& rows, bool zero) {
+        Work<T>& w = L.work<T>();
+        const T* invDiag = L.invD<T>();
+        T rho = T(1) / sigma;
+        T* d = w.d.data();
+        T* dn = w.d2.data();
+        T* r = w.r.data();
         bool first = true;  // x not yet touched by any step
         for (int step = 1; step <= degree; ++step) {
             if (step == degree) {
                 // x += d (x = d for a zero start with degree 1)
-                Real* xx = x;
+                T* xx = x;
                 const bool assign = zero && first;
                 parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
                     for (std::size_t k = at(b0) * C; k < at(e0) * C; ++k)
@@ -184,20 +249,20 @@ struct SmoothPasses {
                 }, kRowGrain);
                 break;
             }
-            const Real rhoNew = Real(1) / (2 * sigma - rho);
-            const Real c1 = rhoNew * rho, c2 = 2 * rhoNew / delta;
+            const T rhoNew = T(1) / (2 * sigma - rho);
+            const T c1 = rhoNew * rho, c2 = 2 * rhoNew / delta;
             const bool assign = zero && first;
             const bool last = step + 1 == degree;
-            Real* xx = x;
+            T* xx = x;
             parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
                 for (Index i = b0; i < e0; ++i) {
-                    Real t[C];
-                    rowTimes<C, V>(st, col, val, i, d, t);
+                    T t[C];
+                    rows.template row<C, T>(i, d, t);
                     for (int c = 0; c < C; ++c) {
                         const std::size_t k = at(i) * C + std::size_t(c);
-                        const Real rk = r[k] - invDiag[i] * t[c];
-                        const Real dk = c1 * d[k] + c2 * rk;
-                        Real xk = assign ? d[k] : xx[k] + d[k];
+                        const T rk = r[k] - invDiag[i] * t[c];
+                        const T dk = c1 * d[k] + c2 * rk;
+                        T xk = assign ? d[k] : xx[k] + d[k];
                         if (last) {
                             xx[k] = xk + dk;  // r and d are not needed after the last step
                         } else {
@@ -213,37 +278,34 @@ struct SmoothPasses {
             first = false;
             if (last) break;
         }
-        // keep L.d / L.d2 pointing at distinct buffers for the next call
     }
 
-    template <int C, typename V>
-    void run() {
-        const int* st = L.A.start.data();
-        const int* col = L.A.column.data();
-        const V* val = values<C, V>();
-        const Real* invDiag = L.invDiag.data();
-        Real* r = L.r.data();
-        Real* d = L.d.data();
-        Real* t = L.t.data();
-        const Real* bb = b;
-        Real* xx = x;
+    template <int C, typename Rows>
+    void run(const Rows& rows) {
+        Work<T>& w = L.work<T>();
+        const T* invDiag = L.invD<T>();
+        T* r = w.r.data();
+        T* d = w.d.data();
+        T* t = w.t.data();
+        const T* bb = b;
+        T* xx = x;
         switch (kind) {
             case Kind::Pre:
                 parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
                     for (Index i = b0; i < e0; ++i)
                         for (int c = 0; c < C; ++c) {
                             const std::size_t k = at(i) * C + std::size_t(c);
-                            r[k] = invDiag[i] * (bb[k] - Real(0));
+                            r[k] = invDiag[i] * (bb[k] - T(0));
                             d[k] = r[k] / theta;
                         }
                 }, kRowGrain);
-                chebyshev<C, V>(true);
+                chebyshev<C>(rows, true);
                 break;
             case Kind::Post:
                 parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
                     for (Index i = b0; i < e0; ++i) {
-                        Real ax[C];
-                        rowTimes<C, V>(st, col, val, i, xx, ax);
+                        T ax[C];
+                        rows.template row<C, T>(i, xx, ax);
                         for (int c = 0; c < C; ++c) {
                             const std::size_t k = at(i) * C + std::size_t(c);
                             r[k] = invDiag[i] * (bb[k] - ax[c]);
@@ -251,34 +313,66 @@ struct SmoothPasses {
                         }
                     }
                 }, kRowGrain);
-                chebyshev<C, V>(false);
+                chebyshev<C>(rows, false);
                 break;
             case Kind::Residual:
                 parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
                     for (Index i = b0; i < e0; ++i) {
-                        Real ax[C];
-                        rowTimes<C, V>(st, col, val, i, xx, ax);
+                        T ax[C];
+                        rows.template row<C, T>(i, xx, ax);
                         for (int c = 0; c < C; ++c) t[at(i) * C + std::size_t(c)] = bb[at(i) * C + std::size_t(c)] - ax[c];
                     }
                 }, kRowGrain);
                 break;
             case Kind::Prolong: {
-                const int* ps = L.P.start.data();
-                const int* pc = L.P.column.data();
-                const Real* pv = L.P.value.data();
-                const Real* cc = xc;
-                parallelForBlocks(L.P.rows, [&](Index b0, Index e0) {
-                    for (Index i = b0; i < e0; ++i) {
-                        Real px[C];
-                        rowTimes<C, Real>(ps, pc, pv, i, cc, px);
-                        for (int c = 0; c < C; ++c) xx[at(i) * C + std::size_t(c)] += px[c];
-                    }
-                }, kRowGrain);
+                const T* cc = xc;
+                auto prolong = [&](const auto& p) {
+                    parallelForBlocks(L.P.rows, [&](Index b0, Index e0) {
+                        for (Index i = b0; i < e0; ++i) {
+                            T px[C];
+                            p.template row<C, T>(i, cc, px);
+                            for (int c = 0; c < C; ++c) xx[at(i) * C + std::size_t(c)] += px[c];
+                        }
+                    }, kRowGrain);
+                };
+                if constexpr (std::is_same_v<T, float>)
+                    prolong(ValuedRows<float>{L.P.start.data(), L.P.column.data(), L.pValueR.data()});
+                else
+                    prolong(ValuedRows<Real>{L.P.start.data(), L.P.column.data(), L.P.value.data()});
                 break;
             }
         }
     }
 };
+
+/// Rectangular y = M x (M by rows, `rows` row products), C interleaved columns, in T.
+template <int C, typename T, typename Rows>
+void multiplyRowsWith(const Rows& m, Index n, const T* x, T* y) {
+    parallelForBlocks(n, [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+            T acc[C];
+            m.template row<C, T>(i, x, acc);
+            for (int c = 0; c < C; ++c) y[at(i) * C + std::size_t(c)] = acc[c];
+        }
+    }, kRowGrain);
+}
+
+/// The restriction b_c = R t of level L in T.
+template <typename T>
+void restrictTo(const Level& L, const T* t, T* bc, int cols) {
+    auto go = [&](const auto& rows) {
+        switch (cols) {
+            case 1: multiplyRowsWith<1>(rows, L.R.rows, t, bc); break;
+            case 2: multiplyRowsWith<2>(rows, L.R.rows, t, bc); break;
+            case 3: multiplyRowsWith<3>(rows, L.R.rows, t, bc); break;
+            default: multiplyRowsWith<4>(rows, L.R.rows, t, bc); break;
+        }
+    };
+    if constexpr (std::is_same_v<T, float>)
+        go(ValuedRows<float>{L.R.start.data(), L.R.column.data(), L.rValueR.data()});
+    else
+        go(ValuedRows<Real>{L.R.start.data(), L.R.column.data(), L.R.value.data()});
+}
 
 /// Spectral radius of D^-1 A: 20 power iterations from a fixed pseudo-random vector, times
 /// 1.1, capped by the Gershgorin bound max_i sum_j |a_ij| / a_ii (always an upper bound).
@@ -314,16 +408,13 @@ Real spectralRadius(const SparseRows& A, const std::vector<Real>& invDiag) {
 }
 
 /// q = A p and the column dots p.q in one pass (fixed 4096-row blocks, as columnDots).
-template <int C>
-Sums multiplyDotFixed(const SparseRows& A, const Real* p, Real* q) {
-    const int* st = A.start.data();
-    const int* col = A.column.data();
-    const Real* val = A.value.data();
+template <int C, typename Rows>
+Sums multiplyDotFixed(const Rows& rows, Index n, const Real* p, Real* q) {
     return parallelReduce(
-        A.rows, Sums{0, 0, 0, 0},
+        n, Sums{0, 0, 0, 0},
         [&](Sums& s, Index i) {
             Real acc[C];
-            rowTimes<C, Real>(st, col, val, i, p, acc);
+            rows.template row<C, Real>(i, p, acc);
             for (int c = 0; c < C; ++c) {
                 const std::size_t k = at(i) * C + std::size_t(c);
                 q[k] = acc[c];
@@ -349,13 +440,19 @@ Sums updateDotFixed(Index n, Real* X, Real* R, const Real* P, const Real* Q, con
         combineSums<C>, 4096);
 }
 
-Sums multiplyDot(const SparseRows& A, const Real* p, Real* q, int cols) {
-    switch (cols) {
-        case 1: return multiplyDotFixed<1>(A, p, q);
-        case 2: return multiplyDotFixed<2>(A, p, q);
-        case 3: return multiplyDotFixed<3>(A, p, q);
-        default: return multiplyDotFixed<4>(A, p, q);
-    }
+/// q = A p with p.q; `fine`: the multigrid level whose matrix A is (its row products), or null.
+Sums multiplyDot(const SparseRows& A, const Level* fine, const Real* p, Real* q, int cols) {
+    auto go = [&](const auto& rows) {
+        switch (cols) {
+            case 1: return multiplyDotFixed<1>(rows, A.rows, p, q);
+            case 2: return multiplyDotFixed<2>(rows, A.rows, p, q);
+            case 3: return multiplyDotFixed<3>(rows, A.rows, p, q);
+            default: return multiplyDotFixed<4>(rows, A.rows, p, q);
+        }
+    };
+    if (fine && fine->unit) return go(UnitRows<Real>{A.start.data(), A.column.data(), fine->diag.data()});
+    if (fine && !fine->valueF.empty()) return go(ValuedRows<float>{A.start.data(), A.column.data(), fine->valueF.data()});
+    return go(ValuedRows<Real>{A.start.data(), A.column.data(), A.value.data()});
 }
 
 Sums updateDot(Index n, Real* X, Real* R, const Real* P, const Real* Q, const Sums& alpha, int cols) {
@@ -378,53 +475,64 @@ struct AggregationMultigrid::Impl {
     MultigridSettings settings;
     std::vector<Level> levels;
     Eigen::LDLT<Eigen::MatrixXd> coarsest;
-    mutable std::vector<std::vector<Real>> rhs, sol;  ///< per level b and x
+    mutable std::vector<std::vector<Real>> rhs, sol;    ///< per level b and x
+    mutable std::vector<std::vector<float>> rhsF, solF;  ///< the same for the float V-cycle
     double seconds = 0;
 
-    /// Chebyshev smoothing of level l on x (zero: x starts at 0), fused passes (SmoothPasses).
-    void smooth(const Level& L, const Real* b, Real* x, int cols, bool zero) const {
-        const std::size_t n = at(L.A.rows) * std::size_t(cols);
-        L.r.resize(n);
-        L.d.resize(n);
-        L.d2.resize(n);
-        L.t.resize(n);
-        SmoothPasses f{L, cols, b, x};
-        f.degree = settings.smootherDegree;
-        f.theta = Real(0.5) * (L.lmax + L.lmin);
-        f.delta = Real(0.5) * (L.lmax - L.lmin);
-        f.sigma = f.theta / f.delta;
-        f.kind = zero ? SmoothPasses::Kind::Pre : SmoothPasses::Kind::Post;
-        dispatch(L, cols, f);
+    template <typename T>
+    std::vector<std::vector<T>>& rhsOf() const {
+        if constexpr (std::is_same_v<T, float>) return rhsF;
+        else return rhs;
+    }
+    template <typename T>
+    std::vector<std::vector<T>>& solOf() const {
+        if constexpr (std::is_same_v<T, float>) return solF;
+        else return sol;
     }
 
-    void cycle(std::size_t l, const Real* b, Real* x, int cols) const {
+    /// Chebyshev smoothing of level l on x (zero: x starts at 0), fused passes (SmoothPasses).
+    template <typename T>
+    void smooth(const Level& L, const T* b, T* x, int cols, bool zero) const {
+        L.work<T>().resize(at(L.A.rows) * std::size_t(cols));
+        SmoothPasses<T> f{L, cols, b, x};
+        f.degree = settings.smootherDegree;
+        const Real theta = Real(0.5) * (L.lmax + L.lmin), delta = Real(0.5) * (L.lmax - L.lmin);
+        f.theta = T(theta);
+        f.delta = T(delta);
+        f.sigma = T(theta / delta);
+        f.kind = zero ? SmoothPasses<T>::Kind::Pre : SmoothPasses<T>::Kind::Post;
+        dispatch<T>(L, cols, f);
+    }
+
+    template <typename T>
+    void cycle(std::size_t l, const T* b, T* x, int cols) const {
         const Level& L = levels[l];
         if (l + 1 == levels.size()) {
             Eigen::MatrixXd rhsM(L.A.rows, cols);
             for (Index i = 0; i < L.A.rows; ++i)
-                for (int c = 0; c < cols; ++c) rhsM(i, c) = b[at(i) * std::size_t(cols) + std::size_t(c)];
+                for (int c = 0; c < cols; ++c) rhsM(i, c) = Real(b[at(i) * std::size_t(cols) + std::size_t(c)]);
             const Eigen::MatrixXd s = coarsest.solve(rhsM);
             for (Index i = 0; i < L.A.rows; ++i)
-                for (int c = 0; c < cols; ++c) x[at(i) * std::size_t(cols) + std::size_t(c)] = s(i, c);
+                for (int c = 0; c < cols; ++c) x[at(i) * std::size_t(cols) + std::size_t(c)] = T(s(i, c));
             return;
         }
-        smooth(L, b, x, cols, true);
-        // residual into L.t, restricted into the next level's right-hand side
-        SmoothPasses res{L, cols, b, x};
-        res.kind = SmoothPasses::Kind::Residual;
-        dispatch(L, cols, res);
+        smooth<T>(L, b, x, cols, true);
+        // residual into the level's t, restricted into the next level's right-hand side
+        SmoothPasses<T> res{L, cols, b, x};
+        res.kind = SmoothPasses<T>::Kind::Residual;
+        dispatch<T>(L, cols, res);
         const Level& C = levels[l + 1];
-        std::vector<Real>& bc = rhs[l + 1];
-        std::vector<Real>& xc = sol[l + 1];
+        std::vector<T>& bc = rhsOf<T>()[l + 1];
+        std::vector<T>& xc = solOf<T>()[l + 1];
         bc.resize(at(C.A.rows) * std::size_t(cols));
         xc.resize(bc.size());
-        multiplyRows(L.R.start, L.R.column, L.R.value, L.R.rows, L.t.data(), bc.data(), cols);
-        cycle(l + 1, bc.data(), xc.data(), cols);
-        SmoothPasses pro{L, cols, b, x};
-        pro.kind = SmoothPasses::Kind::Prolong;
+        restrictTo<T>(L, L.work<T>().t.data(), bc.data(), cols);
+        cycle<T>(l + 1, bc.data(), xc.data(), cols);
+        SmoothPasses<T> pro{L, cols, b, x};
+        pro.kind = SmoothPasses<T>::Kind::Prolong;
         pro.xc = xc.data();
-        dispatch(L, cols, pro);
-        smooth(L, b, x, cols, false);
+        dispatch<T>(L, cols, pro);
+        smooth<T>(L, b, x, cols, false);
     }
 };
 
@@ -501,8 +609,31 @@ AggregationMultigrid::AggregationMultigrid(const SparseRows& A, const std::vecto
         m.levels.push_back(std::move(L));
         break;
     }
+    for (Level& L : m.levels) {
+        // unit rows: every off-diagonal value exactly -1 (the lattice graph Laplacian)
+        L.diag.assign(at(L.A.rows), 0);
+        L.unit = true;
+        for (Index i = 0; i < L.A.rows; ++i)
+            for (int k = L.A.start[at(i)]; k < L.A.start[at(i) + 1]; ++k) {
+                const Real v = L.A.value[static_cast<std::size_t>(k)];
+                if (L.A.column[static_cast<std::size_t>(k)] == i) L.diag[at(i)] = v;
+                else if (v != Real(-1)) L.unit = false;
+            }
+        if (L.unit) L.valueF.clear();  // unit rows read no values
+        else L.diag.clear();
+        if (settings.floatCycle) {
+            auto toFloat = [](const std::vector<Real>& v) { return std::vector<float>(v.begin(), v.end()); };
+            if (!L.unit) L.valueR = toFloat(L.A.value);
+            L.diagR = toFloat(L.diag);
+            L.invDiagR = toFloat(L.invDiag);
+            L.pValueR = toFloat(L.P.value);
+            L.rValueR = toFloat(L.R.value);
+        }
+    }
     m.rhs.resize(m.levels.size());
     m.sol.resize(m.levels.size());
+    m.rhsF.resize(m.levels.size());
+    m.solF.resize(m.levels.size());
     m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -510,7 +641,31 @@ AggregationMultigrid::~AggregationMultigrid() = default;
 
 void AggregationMultigrid::apply(const Real* r, Real* z, int cols) const {
     DGV_CHECK(cols >= 1 && cols <= kMaxCols);
-    mImpl->cycle(0, r, z, cols);
+    const Impl& m = *mImpl;
+    if (!m.settings.floatCycle) {
+        m.cycle<Real>(0, r, z, cols);
+        return;
+    }
+    // float V-cycle: r rounded to float, the cycle in float, z widened back. The cycle runs on
+    // kMaxCols (4) columns, the unused ones zero (they stay zero: every operation is linear):
+    // each row of 4 floats is one 16-byte vector, so the row products vectorise.
+    const Index rows = m.levels.front().A.rows;
+    const std::size_t len = at(rows) * kMaxCols;
+    std::vector<float>& b = m.rhsF[0];
+    std::vector<float>& x = m.solF[0];
+    b.resize(len);
+    x.resize(len);
+    parallelForBlocks(rows, [&](Index b0, Index e0) {
+        for (Index i = b0; i < e0; ++i)
+            for (int c = 0; c < kMaxCols; ++c)
+                b[at(i) * kMaxCols + std::size_t(c)] = c < cols ? float(r[at(i) * std::size_t(cols) + std::size_t(c)]) : 0.0f;
+    }, kRowGrain);
+    m.cycle<float>(0, b.data(), x.data(), kMaxCols);
+    parallelForBlocks(rows, [&](Index b0, Index e0) {
+        for (Index i = b0; i < e0; ++i)
+            for (int c = 0; c < cols; ++c)
+                z[at(i) * std::size_t(cols) + std::size_t(c)] = Real(x[at(i) * kMaxCols + std::size_t(c)]);
+    }, kRowGrain);
 }
 
 const SparseRows& AggregationMultigrid::matrix() const { return mImpl->levels.front().A; }
@@ -538,6 +693,8 @@ SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* 
     std::vector<Real>& Z = w.z;
     std::vector<Real>& P = w.p;
     std::vector<Real>& Q = w.q;
+    // A is the multigrid's own matrix: its row products (unit rows, float values) serve here too
+    const Level* fine = mg && &A == &mg->matrix() ? &mg->mImpl->levels.front() : nullptr;
     std::vector<Real> invDiag;
     if (!mg) {
         invDiag.assign(at(n), 0);
@@ -557,7 +714,7 @@ SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* 
         for (int c = 0; c < cols; ++c) t += s[std::size_t(c)];
         return t;
     };
-    multiply(A, X.data(), Q.data(), cols);
+    (void)multiplyDot(A, fine, X.data(), Q.data(), cols);
     parallelFor(Index(len), [&](Index k) { R[at(k)] = B[at(k)] - Q[at(k)]; }, 4 * kRowGrain);
     if (!(scale > 0)) scale = std::sqrt(total(columnDots(B.data(), B.data(), n, cols)));
     if (!(scale > 0)) scale = 1;
@@ -574,7 +731,7 @@ SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* 
     for (int it = 1; it <= maxIterations; ++it) {
         // fused passes: q = A p with p.q, then the updates of X and R with R.R (the same sums,
         // in the same order, as separate loops and columnDots)
-        const Sums pq = multiplyDot(A, P.data(), Q.data(), cols);
+        const Sums pq = multiplyDot(A, fine, P.data(), Q.data(), cols);
         Sums alpha{0, 0, 0, 0};
         for (int c = 0; c < cols; ++c)
             alpha[std::size_t(c)] = pq[std::size_t(c)] > 0 ? rz[std::size_t(c)] / pq[std::size_t(c)] : Real(0);

@@ -51,7 +51,14 @@ struct MultigridSettings {
     /// matrices whose near-null space includes such checkerboards (the cell normal matrix of
     /// deform/volume.hpp); coarse site = 2 block + parity, so the classes persist on every level.
     bool parityAggregates = false;
+    /// Run the V-cycle in single precision (the matrices, D^-1, P and R rounded to float; the
+    /// coarsest solve stays double): half the memory traffic of the cycle. The preconditioner
+    /// is then B^-1 up to float rounding (relative ~1e-7), which conjugate gradients tolerate
+    /// down to tolerances far below that (their residual is computed in double).
+    bool floatCycle = false;
 };
+
+struct CgWorkspace;
 
 class AggregationMultigrid {
 public:
@@ -74,6 +81,9 @@ public:
 private:
     struct Impl;
     std::unique_ptr<Impl> mImpl;
+    friend SolveReport conjugateGradients(const SparseRows&, const AggregationMultigrid*,
+                                          const std::vector<Real>&, std::vector<Real>&, int, Real,
+                                          Real, int, CgWorkspace*);
 };
 
 /// Conjugate gradients on A X = B for `cols` interleaved columns (independent CG recurrences,

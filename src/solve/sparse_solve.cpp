@@ -77,7 +77,11 @@ PoissonSolver::PoissonSolver(const Lattice& lat, const std::vector<unsigned char
         L.start[at(r) + 1] = static_cast<int>(L.column.size());
         if (count == 0) m.ok = false;  // an isolated free point
     }
-    if (m.ok && n > 0) m.mg = std::make_unique<AggregationMultigrid>(L, coords);
+    if (m.ok && n > 0) {
+        MultigridSettings mgs;
+        mgs.floatCycle = true;  // the preconditioner in float, CG in double (docs/solvers.md)
+        m.mg = std::make_unique<AggregationMultigrid>(L, coords, mgs);
+    }
     // The breadth-first tree of the Path method (reconstruct.cpp, bfsOrder): FIFO from the fixed
     // points in point order, neighbours in slot order, so the order is sorted by depth.
     m.treeParent.assign(at(lat.size()), kNoPoint);
@@ -180,13 +184,16 @@ SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&
         report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return report;
     }
-    // b_p = Σ_{q fixed} x(q) - Σ_q D_pq (3 interleaved columns), x0 = the positions passed in;
+    // b_p = Σ_{q fixed} x(q) - Σ_q D_pq (interleaved columns), x0 = the positions passed in;
     // scale^2 = Σ_p n_p Σ_q |D_pq|^2 over free points (gather.hpp's residual).
     std::vector<Real>& b = m.b;
     std::vector<Real>& x = m.x;
     std::vector<Real>& scale2 = m.scale2;
-    b.resize(at(n) * 3);
-    x.resize(at(n) * 3);
+    // 4 interleaved columns, the 4th zero (and so zero throughout: every CG operation on it is
+    // 0, and adds 0 to the residual): a row is 32 bytes, two SSE vectors, in every pass.
+    constexpr int kCols = 4;
+    b.resize(at(n) * kCols);
+    x.resize(at(n) * kCols);
     scale2.resize(at(n));
     parallelFor(n, [&](Index r) {
         const Index p = m.freePoints[at(r)];
@@ -203,18 +210,19 @@ SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&
             if (m.fixed[at(q)]) s += positions[at(q)];
         }
         scale2[at(r)] = Real(count) * s2;
-        for (int c = 0; c < 3; ++c) {
-            b[at(r) * 3 + std::size_t(c)] = s[c];
-            x[at(r) * 3 + std::size_t(c)] = positions[at(p)][c];
+        for (int c = 0; c < kCols; ++c) {
+            b[at(r) * kCols + std::size_t(c)] = c < 3 ? s[c] : Real(0);
+            x[at(r) * kCols + std::size_t(c)] = c < 3 ? positions[at(p)][c] : Real(0);
         }
     });
     const Real scale = std::sqrt(parallelReduce(
         n, Real(0), [&](Real& acc, Index r) { acc += scale2[at(r)]; },
         [](Real a, Real c) { return a + c; }));
-    report = conjugateGradients(m.laplacian, m.mg.get(), b, x, 3, tolerance, scale, maxIterations,
+    // the multigrid's own copy of L: conjugateGradients then uses its row products (unit rows)
+    report = conjugateGradients(m.mg->matrix(), m.mg.get(), b, x, kCols, tolerance, scale, maxIterations,
                                 &m.work);
     parallelFor(n, [&](Index r) {
-        positions[at(m.freePoints[at(r)])] = Vec3(x[at(r) * 3], x[at(r) * 3 + 1], x[at(r) * 3 + 2]);
+        positions[at(m.freePoints[at(r)])] = Vec3(x[at(r) * kCols], x[at(r) * kCols + 1], x[at(r) * kCols + 2]);
     });
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return report;

@@ -8,9 +8,10 @@
 ///
 /// L depends only on the lattice and on which points are fixed, never on the connection, so its
 /// multigrid hierarchy (multigrid.hpp: smoothed aggregation, 3x3x3 aggregates) is built ONCE per
-/// lattice and fixed set and reused for every step; each solve is conjugate gradients on the
-/// three world axes together, preconditioned by one V-cycle per iteration and warm-started from
-/// the positions passed in (the previous step's, or the path integration's).
+/// lattice and fixed set and reused for every step; each solve is conjugate gradients (in double)
+/// on the three world axes together, preconditioned by one V-cycle per iteration (in float:
+/// MultigridSettings::floatCycle) and warm-started from the positions passed in (the previous
+/// step's, or the path integration's).
 /// Residual: the position residual of gather.hpp, |b - L x| / sqrt(Σ_p n_p Σ_q |D_pq|^2).
 
 #include "base/types.hpp"
