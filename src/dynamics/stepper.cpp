@@ -59,7 +59,49 @@ Mat3 polarRotation(const Mat3& A) {
     return U * V.transpose();
 }
 
+/// The part of a change δA of the affine part that keeps det A to first order, in the kinetic
+/// metric tr(δA S δAᵀ): δA − (⟨A⁻ᵀ, δA⟩ / ⟨A⁻ᵀ, A⁻ᵀS⁻¹⟩) A⁻ᵀS⁻¹ (tr(A⁻¹δA) = ⟨A⁻ᵀ, δA⟩).
+Mat3 volumeKeeping(const Mat3& dA, const Mat3& a, const Mat3& secondMomentInv) {
+    const Mat3 ait = a.inverse().transpose();
+    const Mat3 wInvT = ait * secondMomentInv;
+    return dA - ((ait.array() * dA.array()).sum() / (ait.array() * wInvT.array()).sum()) * wInvT;
+}
+
 }  // namespace
+
+// The affine contact response (stepper.hpp).
+void affineContactCorrection(const std::vector<AffineContact>& contacts, const Mat3& a, const Mat3& secondMoment,
+                             Vec3& dc, Mat3& dA) {
+    const Mat3 sInv = secondMoment.inverse();
+    std::vector<Vec3> gc(contacts.size());
+    std::vector<Mat3> gA(contacts.size());
+    std::vector<Real> invMass(contacts.size()), lambda(contacts.size(), 0);
+    for (std::size_t k = 0; k < contacts.size(); ++k) {
+        const AffineContact& c = contacts[k];
+        gc[k] = c.normal;
+        gA[k] = volumeKeeping(c.normal * c.rest.transpose() * sInv, a, sInv);
+        const Real m = c.normal.dot(gc[k] + gA[k] * c.rest);
+        invMass[k] = m > 0 ? 1 / m : 0;
+    }
+    dc.setZero();
+    dA.setZero();
+    Real deepest = 0;
+    for (const AffineContact& c : contacts) deepest = std::max(deepest, c.depth);
+    for (int sweep = 0; sweep < 64; ++sweep) {
+        Real worst = 0;
+        for (std::size_t k = 0; k < contacts.size(); ++k) {
+            const AffineContact& c = contacts[k];
+            const Real r = c.depth - c.normal.dot(dc + dA * c.rest);
+            const Real next = std::max(Real(0), lambda[k] + r * invMass[k]);
+            const Real d = next - lambda[k];
+            lambda[k] = next;
+            dc += d * gc[k];
+            dA += d * gA[k];
+            if (next > 0 || r > 0) worst = std::max(worst, std::abs(r));
+        }
+        if (worst <= 1e-3 * deepest) break;
+    }
+}
 
 bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::array<Mat3, 3>& hessian,
                  const PointConnection& gamma, Real dt, const DynamicsSettings& settings, PointConnection& dGamma) {
@@ -439,6 +481,72 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
                 if (col.evaluate(xNew[at(p)], g) < 0) truth[at(p)] = 1;
             }
         });
+        // The points that respond, per collider: the GLN network's R (eqs 90-91, collide/gln_network)
+        // or, without a detector, every point inside some collider.
+        std::vector<std::vector<unsigned char>> responds(colliders.size());
+        for (std::size_t c = 0; c < colliders.size(); ++c) {
+            std::vector<unsigned char>& R = responds[c];
+            if (mDetector) {
+                R.assign(at(n), 0);
+                mDetector(xNew, c, R);
+            } else {
+                R = truth;
+            }
+            for (Index p = 0; p < n; ++p)
+                if (mPinned[at(p)]) R[at(p)] = 0;
+        }
+        // Body and flex take the push first (docs/math.md, "Contact: body and flex take the
+        // collider's push first"), then each point still inside is moved out.
+        if (mSet.affineContact && !mAnyPinned) {
+            std::vector<AffineContact> contacts;
+            for (Index p = 0; p < n; ++p) {
+                // The deepest collider decides; the point is lifted to its surface and beyond it
+                // by `restitution` × the depth, as the point response below would.
+                Real deepest = 0, lift = 0;
+                Vec3 nrm = Vec3::Zero();
+                for (std::size_t c = 0; c < colliders.size(); ++c) {
+                    if (!responds[c][at(p)]) continue;
+                    Vec3 g;
+                    const Real phi = colliders[c].evaluate(xNew[at(p)], g);
+                    const Real gn = g.norm();
+                    if (gn > 0 && -phi / gn > deepest) {
+                        deepest = -phi / gn;
+                        lift = (1 + colliders[c].restitution) * deepest;
+                        nrm = g / gn;
+                    }
+                }
+                if (deepest > 0) {
+                    mContactDepth[at(p)] = deepest;  // the depth the prediction reached
+                    contacts.push_back({mRestRel[at(p)], nrm, lift});
+                }
+            }
+            Vec3 dc;
+            Mat3 dA;
+            if (!contacts.empty()) {
+                affineContactCorrection(contacts, aNew, mS0inv.inverse(), dc, dA);
+                // Bounded: no point moves further than the deepest contact is deep, and the strain
+                // of one step stays under kMaxContactStrain; the points take the rest. (Contacts on
+                // opposite sides, e.g. through a ring, can ask for a large squeeze in one step.)
+                constexpr Real kMaxContactStrain = 0.3;
+                Real deepest = 0;
+                for (const AffineContact& c : contacts) deepest = std::max(deepest, c.depth);
+                const Real largest = parallelReduce(
+                    n, Real(0), [&](Real& acc, Index p) { acc = std::max(acc, (dc + dA * mRestRel[at(p)]).norm()); },
+                    [](Real x, Real y) { return std::max(x, y); });
+                const Real strain = (aNew.inverse() * dA).norm();
+                Real scale = 1;
+                if (largest > deepest) scale = deepest / largest;
+                if (strain * scale > kMaxContactStrain) scale = kMaxContactStrain / strain;
+                dc *= scale;
+                dA *= scale;
+                const Sl3Result r1 = projectToSL3(aNew + dA);
+                if (r1.ok) {
+                    const Vec3 c1 = cNew + dc;
+                    const Mat3 map = r1.matrix * aNew.inverse();
+                    parallelFor(n, [&](Index p) { xNew[at(p)] = c1 + map * (xNew[at(p)] - cNew); });
+                }
+            }
+        }
         // The response of one point to one collider: out along the signed distance's gradient,
         // to the surface and beyond it by `restitution` × the depth (the normal reflection of an
         // elastic contact; 0: onto the surface), the tangential step reduced by the friction
@@ -456,25 +564,13 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
             x -= col.friction * (s - s.dot(nrm) * nrm);
             mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phi / gn);
         };
-        if (mDetector) {
-            // R per collider (eqs 90-91, collide/gln_network), then the response of its points.
-            std::vector<unsigned char> R;
+        parallelFor(n, [&](Index p) {
             for (std::size_t c = 0; c < colliders.size(); ++c) {
-                R.assign(at(n), 0);
-                mDetector(xNew, c, R);
-                parallelFor(n, [&](Index p) {
-                    if (!R[at(p)] || mPinned[at(p)]) return;
-                    mContact[at(p)] = 1;
-                    respond(p, colliders[c]);
-                });
-            }
-        } else {
-            parallelFor(n, [&](Index p) {
-                if (!truth[at(p)]) return;
+                if (!responds[c][at(p)]) continue;
                 mContact[at(p)] = 1;
-                for (const Collider& col : colliders) respond(p, col);
-            });
-        }
+                respond(p, colliders[c]);
+            }
+        });
         for (Index p = 0; p < n; ++p) {
             report.contactTruth += truth[at(p)];
             if (truth[at(p)] && mContact[at(p)]) ++report.contactTruePositive;
@@ -516,9 +612,10 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
         const Sl3Result r1 = projectToSL3(A1);
         if (r1.ok) A1 = r1.matrix;
         mVc = (c1 - mC) / dt;
+        mAdot = (A1 - mA) / dt;
         if (report.contacts > 0) {
             // restitution on the normal part of the body velocity, about the mean contact normal
-            Vec3 nSum = Vec3::Zero();
+            Vec3 nSum = Vec3::Zero(), restSum = Vec3::Zero();
             Real e = 0;
             Index count = 0;
             for (Index p = 0; p < n; ++p) {
@@ -527,6 +624,7 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
                     Vec3 g;
                     if (col.evaluate(xNew[at(p)], g) <= 1e-9 * h) {
                         nSum += g;
+                        restSum += mRestRel[at(p)];
                         e += col.restitution;
                         ++count;
                         break;
@@ -534,18 +632,28 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
                 }
             }
             if (count > 0 && nSum.norm() > 0) {
-                // The body meets the collider: its velocity into it stops (or bounces back with
-                // the restitution); otherwise the free points keep falling onto the held ones and
-                // fold the bottom layers within a few steps.
+                // The body meets the collider: its centre's velocity into it stops (or bounces back
+                // with the restitution); otherwise the free points keep falling onto the held ones
+                // and fold the bottom layers within a few steps. And the flex rate may not lift the
+                // contact patch off by itself: a body that squashes on impact (goo has nothing to
+                // stop the squash) would otherwise hop. The part of Ȧ that moves the mean contact
+                // point X̄ away from the collider relative to the centre is taken out (the least
+                // change in the kinetic metric, trace-free: det A kept), so the squash's momentum
+                // is absorbed by the contact (docs/math.md, "Contact: body and flex take the
+                // collider's push first").
                 const Vec3 nrm = nSum.normalized();
                 const Real vn = vcBefore.dot(nrm);
                 if (vn < 0) {
                     const Vec3 tangential = mVc - mVc.dot(nrm) * nrm;
                     mVc = tangential - (e / static_cast<Real>(count)) * vn * nrm;
                 }
+                const Vec3 xbar = restSum / static_cast<Real>(count);
+                const Real lift = nrm.dot(mAdot * xbar);  // > 0: the patch leaves the collider
+                const Mat3 gA = volumeKeeping(nrm * xbar.transpose() * mS0inv, A1, mS0inv);
+                const Real effect = nrm.dot(gA * xbar);
+                if (lift > 0 && vn < 0 && effect > 1e-12 * xbar.squaredNorm() * mS0inv.norm()) mAdot -= (lift / effect) * gA;
             }
         }
-        mAdot = (A1 - mA) / dt;
         mC = c1;
         mA = A1;
     } else {

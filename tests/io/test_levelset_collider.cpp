@@ -331,7 +331,7 @@ TEST_CASE("levelset collider: the shipped scene's cube is where its transform pu
     const SceneDesc s = loadScene(test::sourcePath("scenes") / "levelset_drop.json");
     const auto phi = colliderPhi(s);
     Vec3 g;
-    for (const Vec3 x : {Vec3(0, 0.03, 0), Vec3(0.2, 0.0, -0.1), Vec3(-0.3, -0.05, 0.25)}) {
+    for (const Vec3& x : {Vec3(0, 0.03, 0), Vec3(0.2, 0.0, -0.1), Vec3(-0.3, -0.05, 0.25)}) {
         // on a flat face the level set is linear: exact up to the float samples (and the file's
         // own distances, within 1e-5 of the plane's here)
         CHECK(phi(x, &g) == Approx(x.y()).margin(1e-5));
