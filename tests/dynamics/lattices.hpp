@@ -1,6 +1,9 @@
 #pragma once
-// Lattices shared by the dynamics tests: a ball of material points and a full box.
+// Lattices and set-ups shared by the dynamics tests: a ball of material points, a full box,
+// uniform gravity and a ground plane.
 
+#include "dynamics/forces.hpp"
+#include "dynamics/stepper.hpp"
 #include "geom/lattice.hpp"
 
 #include <vector>
@@ -24,6 +27,24 @@ inline Lattice sphereLattice(int radius, Real h, const Vec3& origin) {
 /// Every point of a dims grid with spacing h, lowest corner at `origin`.
 inline Lattice boxLattice(const Vec3i& dims, Real h, const Vec3& origin) {
     return buildLattice(origin, h, dims, std::vector<unsigned char>(static_cast<std::size_t>(dims.prod()), 1));
+}
+
+/// Uniform gravity of 9.81 m/s² (down y).
+inline ForceField gravityField() {
+    ForceTerm t;
+    t.kind = ForceKind::Gravity;
+    t.strength = Keyframes::constant(9.81);
+    ForceField g;
+    g.add(t);
+    return g;
+}
+
+/// The ground plane y = 0 (normal +y, no friction, no restitution).
+inline Collider groundPlane() {
+    Collider ground;
+    ground.kind = Collider::Kind::Plane;
+    ground.point = Vec3::Zero();
+    return ground;
 }
 
 }  // namespace dgv::test

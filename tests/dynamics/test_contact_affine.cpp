@@ -83,15 +83,8 @@ TEST_CASE("affine contact: without contacts nothing moves", "[dynamics][contact]
 TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it; without the response it folds",
           "[dynamics][contact]") {
     const Lattice lat = test::sphereLattice(5, 0.05, Vec3(0, 0.35, 0) - Vec3::Constant(5 * 0.05));
-    ForceField g;
-    ForceTerm t;
-    t.kind = ForceKind::Gravity;
-    t.strength = Keyframes::constant(9.81);
-    g.add(t);
-    Collider ground;
-    ground.kind = Collider::Kind::Plane;
-    ground.point = Vec3::Zero();
-    const std::vector<Collider> colliders = {ground};
+    const ForceField g = test::gravityField();
+    const std::vector<Collider> colliders = {test::groundPlane()};
     struct Outcome {
         int steps = 0;
         std::string fault;

@@ -245,15 +245,8 @@ TEST_CASE("stepper: goo dropped on the ground stops on it and spreads, keeping i
     DynamicsSettings set;
     set.damping = 2;
     DeformableBody body(lat, restPositions(lat), set);
-    ForceField g;
-    ForceTerm t;
-    t.kind = ForceKind::Gravity;
-    t.strength = Keyframes::constant(9.81);
-    g.add(t);
-    Collider ground;
-    ground.kind = Collider::Kind::Plane;
-    ground.point = Vec3::Zero();
-    const std::vector<Collider> colliders = {ground};
+    const ForceField g = test::gravityField();
+    const std::vector<Collider> colliders = {test::groundPlane()};
     Real minY = 1, maxErr = 0;
     Index contacts = 0;
     // 0.45 s of fall, then 0.55 s on the ground (goo keeps spreading after that; docs/math.md)
