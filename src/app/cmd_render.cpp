@@ -7,6 +7,7 @@
 #include "app/scene_build.hpp"
 #include "app/collider_draw.hpp"
 #include "base/errors.hpp"
+#include "geom/lattice.hpp"
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"
 #include "io/png.hpp"
@@ -15,6 +16,7 @@
 #include "render/renderer.hpp"
 #include "sim/contact_highlight.hpp"
 #include "sim/gln_overlay.hpp"
+#include "sim/lattice_overlay.hpp"
 
 #include <unistd.h>
 
@@ -238,11 +240,15 @@ int runRender(const RenderOptions& options) {
             ramp.max = 1.25 * depthMax;
         }
     }
+    // render.overlays.lattice: the points drawn, per object (lattice_set "boundary": the
+    // surface layer facing the camera, so the dots do not stack into stripes through the body).
+    std::vector<std::vector<Index>> latticeShown(objects.size());
     if (rd.overlayLattice) {
         frameScene.points.resize(objects.size());
-        for (PointSet& ps : frameScene.points) {
-            ps.colour = rd.overlayLatticeColour;
-            ps.size = rd.overlayPointSize;
+        for (std::size_t i = 0; i < objects.size(); ++i) {
+            frameScene.points[i].colour = rd.overlayLatticeColour;
+            frameScene.points[i].size = rd.overlayPointSize;
+            if (rd.overlayLatticeSet == "boundary") latticeShown[i] = boundaryPoints(objects[i].lattice);
         }
     }
     // GLN network loops (render.overlays.gln_loops): each object's network built here as the
@@ -305,7 +311,12 @@ int runRender(const RenderOptions& options) {
                                                          dynamics.contactHistory(i).age(), rd.contactFadeFrames,
                                                          frameScene.meshes[i].ramp.min),
                                       frameScene.meshes[i].scalar);
-            if (rd.overlayLattice) frameScene.points[i].points = (body ? body->state() : objects[i].state).position;
+            if (rd.overlayLattice) {
+                const std::vector<Vec3>& x = (body ? body->state() : objects[i].state).position;
+                frameScene.points[i].points = rd.overlayLatticeSet == "all"
+                                                  ? x
+                                                  : latticeOverlayPoints(objects[i].lattice, x, latticeShown[i], &camera.eye);
+            }
             if (loopNetworks[i]) {
                 static const std::vector<unsigned char> kNoContact;
                 for (ClosedCurve& loop : glnOverlayLoops(*loopNetworks[i], loopSet,

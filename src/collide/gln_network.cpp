@@ -15,12 +15,6 @@ namespace {
 
 inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
 
-bool isBoundary(const Lattice& lat, Index p) {
-    for (Index q : lat.neighbours[at(p)])
-        if (q == kNoPoint) return true;
-    return false;
-}
-
 /// Outward rest normal of a boundary point: away from the centroid of the material points in
 /// the 5×5×5 block around it (voxel units); the missing 6-neighbour directions if that is zero.
 Vec3 restNormal(const Lattice& lat, Index p) {
@@ -196,7 +190,7 @@ GlnNetwork::GlnNetwork(const Lattice& lat, const GlnNetworkSettings& st) : mLat(
     const Index n = lat.size();
     mFineOf.assign(at(n), -1);
     std::vector<unsigned char> boundary(at(n), 0);
-    for (Index p = 0; p < n; ++p) boundary[at(p)] = isBoundary(lat, p) ? 1 : 0;
+    for (Index p = 0; p < n; ++p) boundary[at(p)] = isBoundaryPoint(lat, p) ? 1 : 0;
     std::vector<Index> bpoints;
     for (Index p = 0; p < n; ++p)
         if (boundary[at(p)]) bpoints.push_back(p);

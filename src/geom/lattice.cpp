@@ -119,4 +119,17 @@ std::vector<Vec3> restPositions(const Lattice& lat) {
     return x;
 }
 
+bool isBoundaryPoint(const Lattice& lat, Index p) {
+    for (Index q : lat.neighbours[static_cast<std::size_t>(p)])
+        if (q == kNoPoint) return true;
+    return false;
+}
+
+std::vector<Index> boundaryPoints(const Lattice& lat) {
+    std::vector<Index> out;
+    for (Index p = 0; p < lat.size(); ++p)
+        if (isBoundaryPoint(lat, p)) out.push_back(p);
+    return out;
+}
+
 }  // namespace dgv

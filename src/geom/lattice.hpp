@@ -45,4 +45,10 @@ Lattice buildLattice(const Vec3& originWorld, Real spacing, const Vec3i& dims,
 /// Rest positions of all points, in point order.
 std::vector<Vec3> restPositions(const Lattice& lat);
 
+/// True when point p lacks at least one of its six neighbours: it lies on the object's surface.
+bool isBoundaryPoint(const Lattice& lat, Index p);
+
+/// The boundary points (isBoundaryPoint), in increasing point order.
+std::vector<Index> boundaryPoints(const Lattice& lat);
+
 }  // namespace dgv

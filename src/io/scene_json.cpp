@@ -601,6 +601,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         });
         g.object("overlays", [&](ObjectReader& o) {
             d.overlayLattice = o.boolean("lattice", d.overlayLattice);
+            d.overlayLatticeSet = o.choice("lattice_set", d.overlayLatticeSet, {"boundary", "all"});
             d.overlayLatticeColour = o.color("lattice_color", d.overlayLatticeColour);
             d.overlayPointSize = o.number("point_size", d.overlayPointSize, 1, 64);
             d.overlayGlnLoops = o.boolean("gln_loops", d.overlayGlnLoops);

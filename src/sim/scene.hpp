@@ -180,8 +180,10 @@ struct RenderDesc {
     bool contactLowSet = false;        ///< whether `low` was given (recent: default the object's colour)
     Vec3 contactLow = Vec3(1.0, 0.85, 0.1);    ///< linear RGB: shallow / fading
     Vec3 contactHigh = Vec3(0.9, 0.05, 0.02);  ///< linear RGB: deep / in contact now
-    /// Overlays (render.overlays): lattice points as dots drawn over the surface.
+    /// Overlays (render.overlays): lattice points as dots drawn over the surface, either the
+    /// "boundary" points (those missing a neighbour: the surface layer) or "all" of them.
     bool overlayLattice = false;
+    std::string overlayLatticeSet = "boundary";
     Vec3 overlayLatticeColour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB
     Real overlayPointSize = 3;         ///< dot diameter, output pixels
     /// GLN network loops (docs/gln.md) as lines: "contact" (fine rings of the points in R),

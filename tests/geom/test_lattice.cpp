@@ -79,6 +79,27 @@ TEST_CASE("lattice: neighbour counts of a box", "[geom]") {
     REQUIRE(links == 2 * (4 * 4 * 3 + 5 * 3 * 3 + 5 * 4 * 2));
 }
 
+TEST_CASE("lattice: boundary points are those missing a neighbour (box, and a box with a hole)", "[geom]") {
+    const Vec3i dims(6, 5, 4);
+    const std::vector<unsigned char> mask = boxMask(dims, {0, 0, 0}, {5, 4, 3});
+    const Lattice box = buildLattice(Vec3::Zero(), 1, dims, mask);
+    const std::vector<Index> surface = boundaryPoints(box);
+    // 6 x 5 x 4 points, 4 x 3 x 2 of them interior.
+    REQUIRE(surface.size() == std::size_t(6 * 5 * 4 - 4 * 3 * 2));
+    for (std::size_t k = 1; k < surface.size(); ++k) REQUIRE(surface[k] > surface[k - 1]);
+    for (Index p : surface) {
+        const Vec3i u = box.coords[p];
+        REQUIRE(((u.array() == 0) || (u.array() == dims.array() - 1)).any());
+    }
+    // Removing one interior point (2, 2, 1) makes its six neighbours boundary points too.
+    std::vector<unsigned char> holed = mask;
+    holed[static_cast<std::size_t>(2 + dims.x() * (2 + dims.y() * 1))] = 0;
+    const Lattice withHole = buildLattice(Vec3::Zero(), 1, dims, holed);
+    REQUIRE(boundaryPoints(withHole).size() == surface.size() + 5);  // (2,2,0) was one already
+    REQUIRE(isBoundaryPoint(withHole, withHole.pointAt(Vec3i(3, 2, 1))));
+    REQUIRE_FALSE(isBoundaryPoint(withHole, withHole.pointAt(Vec3i(3, 2, 2))));
+}
+
 TEST_CASE("lattice: neighbours are symmetric and one step apart (sphere)", "[geom]") {
     const Vec3i dims(21, 19, 17);
     const Lattice lat = buildLattice(Vec3::Zero(), 1, dims, sphereMask(dims, {10, 9, 8}, 7.3));

@@ -10,6 +10,7 @@
 #include "io/png.hpp"
 #include "sim/contact_highlight.hpp"
 #include "sim/gln_overlay.hpp"
+#include "sim/lattice_overlay.hpp"
 #include "io/scene_json.hpp"
 #include "collide/gln_network.hpp"
 #include "geom/lattice.hpp"
@@ -403,6 +404,8 @@ TEST_CASE("overlays: bad render.overlays settings are one-line input errors", "[
         {R"({ "gln_loops": true, "line_width": 65 })", "render.overlays.line_width"},
         {R"({ "gln_loops": true, "gln_color": [1, 0] })", "render.overlays.gln_color"},
         {R"({ "gln_loop": true })", "render.overlays.gln_loop: unknown key"},
+        {R"({ "lattice": true, "lattice_set": "surface" })",
+         "render.overlays.lattice_set: expected one of 'boundary', 'all'"},
     };
     for (const auto& [overlays, message] : cases) {
         INFO(overlays);
@@ -427,6 +430,51 @@ TEST_CASE("overlays: bad render.overlays settings are one-line input errors", "[
     CHECK_FALSE(d.render.overlayGlnLoops);
     CHECK(d.render.overlayGlnLoopSet == "contact");
     CHECK(d.render.overlayLineWidth == 1.5);
+    CHECK(d.render.overlayLatticeSet == "boundary");
+}
+
+// The lattice dots' facing test on a 5x5x5 block seen from far along +x: exactly the i = 4
+// face is kept (its outward direction has a +x part; every other boundary point's points away
+// from the eye). Turned 90 degrees about z (x -> (-y, x, z)), the face that now looks along +x,
+// j = 0, is the one kept: the test follows the deformed positions, not the rest lattice.
+TEST_CASE("overlays: lattice dots keep the boundary points facing the eye", "[render][overlay]") {
+    const Vec3i dims(5, 5, 5);
+    const Lattice lat = buildLattice(Vec3::Zero(), 1, dims, std::vector<unsigned char>(125, 1));
+    const std::vector<Index> surface = boundaryPoints(lat);
+    REQUIRE(surface.size() == std::size_t(125 - 27));
+    std::vector<Vec3> x = restPositions(lat);
+    const Vec3 eye(100, 2, 2);
+    std::vector<Vec3> dots = latticeOverlayPoints(lat, x, surface, &eye);
+    REQUIRE(dots.size() == 25);
+    for (const Vec3& d : dots) CHECK(d.x() == 4.0);
+    CHECK(latticeOverlayPoints(lat, x, surface, nullptr).size() == surface.size());
+    CHECK(latticeOutward(lat, x, lat.pointAt(Vec3i(2, 2, 2))) == Vec3::Zero());
+    CHECK(latticeOutward(lat, x, lat.pointAt(Vec3i(4, 4, 2))) == Vec3(1, 1, 0));
+    for (Vec3& p : x) p = Vec3(-p.y() + 6, p.x(), p.z());
+    dots = latticeOverlayPoints(lat, x, surface, &eye);
+    REQUIRE(dots.size() == 25);
+    for (const Vec3& d : dots) CHECK(d.x() == 6.0);  // j = 0 now lies at x = 6
+}
+
+// render.overlays.lattice: "boundary" draws the surface layer's points, "all" every point. The
+// ball (resolution 14) seen from the camera: interior points project between the surface points,
+// so "all" colours clearly more pixels; both leave the background untouched.
+TEST_CASE("overlays: lattice dots, boundary layer or all points", "[render][overlay][e2e]") {
+    test::TempDir dir("lattice_dots");
+    auto dotPixels = [&](const std::string& set) {
+        writeBallScene(dir.path(), "", 1, "", R"(, "overlays": { "lattice": true, "lattice_set": ")" + set +
+                                                   R"(", "lattice_color": [0, 1, 0], "point_size": 2 })");
+        REQUIRE(e2e::runDgvIn(dir.path(), "-q render ball.json --out " + set).exitCode == 0);
+        const Image img = readPng(dir.path() / set / "ball.0001.png");
+        int n = 0;
+        for (int y = 0; y < 128; ++y)
+            for (int x = 0; x < 128; ++x) n += highlighted(img, x, y) ? 1 : 0;
+        return n;
+    };
+    const int boundary = dotPixels("boundary");
+    const int all = dotPixels("all");
+    CHECK(boundary >= 200);
+    CHECK(all > boundary + boundary / 5);
 }
 
 // Sphere colliders are drawn (src/app/collider_draw.cpp): a static box beside a sphere collider,
