@@ -10,10 +10,13 @@
 #include "render/renderer.hpp"
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <thread>
 #include <vector>
 
@@ -123,6 +126,47 @@ void render(std::ostream& out, const BenchOptions& options) {
         sequenceCpuMs = (processCpuMs() - cpu0) / repeats;
     }
 
+    // 3. The issue's reference figure, to compare machines: the same mesh drawn at 1920x1080
+    // without supersampling, ground or shading beyond Lambert (a copy of the shader folder whose
+    // mesh.frag is replaced), timed as the scene pass alone. The issue measured about 18
+    // frames/s (55 ms) on its machine; figures from machines that differ scale by this ratio.
+    double plainMs = 0;
+    {
+        namespace fs = std::filesystem;
+        const fs::path plainDir = fs::temp_directory_path() / ("dgv-bench-plain-" + std::to_string(::getpid()));
+        fs::create_directories(plainDir);
+        for (const auto& entry : fs::directory_iterator(findShaderDir()))
+            if (entry.is_regular_file()) fs::copy_file(entry.path(), plainDir / entry.path().filename());
+        std::ofstream(plainDir / "mesh.frag", std::ios::trunc) << R"(#version 330 core
+in vec3 vPosition;
+in vec3 vNormal;
+in float vScalar;
+uniform vec3 uAlbedo;
+out vec4 fragColour;
+void main() {
+    vec3 n = normalize(vNormal);
+    fragColour = vec4(uAlbedo * (0.1 + max(dot(n, uKeyDir), 0.0)), 1.0);
+}
+)";
+        RenderSettings plain = settings;
+        plain.supersample = 1;
+        plain.profilePasses = true;
+        plain.shaderDir = plainDir.string();
+        FrameScene bare = scene;
+        bare.groundPlane = false;
+        std::vector<double> ms;
+        {
+            Renderer renderer(plain);
+            for (int f = 0; f <= repeats; ++f) {
+                renderer.render(bare, camera(f));
+                if (f > 0) ms.push_back(renderer.lastTimings().sceneMs);
+            }
+        }
+        std::error_code ignored;
+        fs::remove_all(plainDir, ignored);
+        plainMs = median(ms);
+    }
+
     out << "render.gl_renderer: " << glName << "\n";
     out << "render.size: " << settings.width << "x" << settings.height << " x" << settings.supersample
         << "x" << settings.supersample << " supersampled, " << scene.meshes[0].triangles.size() << " triangles\n";
@@ -141,6 +185,9 @@ void render(std::ostream& out, const BenchOptions& options) {
     // machine with N cores a frame takes at least cpu/N of wall time.
     out << "render.sequence_cpu_ms_per_frame: " << sequenceCpuMs << " ms\n";
     out << "render.fps: " << 1000.0 / sequenceMs << " frames/s\n";
+    out << "render.reference_plain_ms: " << plainMs << " ms (" << 1000.0 / plainMs
+        << " frames/s: the same mesh at 1x, Lambert only, no ground"
+        << (options.quick ? ")\n" : "; the issue's machine drew it at about 18 frames/s)\n");
     out.flush();
 }
 
