@@ -117,7 +117,7 @@ bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::arr
         Vec3 axis;
         Real angle = 0;
         stepRotation(G, axis, angle);
-        Mat3 world = rotation(axis, -2 * angle);
+        Mat3 world = settings.twistRotation ? rotation(axis, -2 * angle) : Mat3(Mat3::Identity());
         if (settings.twistStretch == TwistStretch::DampOnly) {
             // stretch eigenvalues d > 0 damp by (1 + d)^-2 ≈ exp(-2 δt D); d < 0 would amplify: dropped
             Eigen::SelfAdjointEigenSolver<Mat3> es;
@@ -403,6 +403,37 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
     for (std::size_t c = 0; c < 3; ++c) {
         gammaBar[c].resize(at(n));
         parallelFor(n, [&](Index p) { gammaBar[c][at(p)] = mState.christoffel[c][at(p)] + mDGamma[c][at(p)]; });
+    }
+    {
+        // A folded lattice (a boundary frame turned over) has |Γ| of tens per lattice step and
+        // growing; the edge transports exp(Γ) overflow past a few hundred. Stop with a fault
+        // naming the point instead (also NaN).
+        constexpr Real kMaxGamma = 100;
+        auto size2 = [&](Index p) {
+            Real acc = 0;
+            for (std::size_t c = 0; c < 3; ++c) acc += gammaBar[c][at(p)].squaredNorm();
+            return acc;
+        };
+        const Real largest = parallelReduce(
+            n, Real(0), [&](Real& acc, Index p) { acc = std::max(acc, size2(p)); },
+            [](Real a, Real b) { return std::max(a, b); });
+        bool finite = true;
+        for (Index p = 0; p < n && finite; ++p) finite = std::isfinite(size2(p));
+        if (!finite || !(largest <= kMaxGamma * kMaxGamma)) {
+            Index worst = 0;
+            for (Index p = 0; p < n; ++p)
+                if (!(size2(p) <= size2(worst))) worst = p;
+            const Vec3i& u = mLat.coords[at(worst)];
+            char what[300];
+            std::snprintf(what, sizeof what,
+                          "the lattice folded at material point u = (%d, %d, %d): its connection |Γ + δΓ| = %.3g per "
+                          "lattice step (a smooth shape has well under 1): use more damping, more substeps or a "
+                          "briefer force",
+                          u.x(), u.y(), u.z(), std::sqrt(size2(worst)));
+            report.fault = what;
+            report.totalSeconds = since(tStart);
+            return report;
+        }
     }
     const EdgeTransports e0 = computeEdgeTransports(mLat, mState.christoffel);
     const EdgeTransports e1 = computeEdgeTransports(mLat, gammaBar);

@@ -74,6 +74,12 @@ struct DynamicsSettings {
                                       ///< wobble frequency sqrt(k)/(2π) Hz
     FlexDrive flexDrive = FlexDrive::FirstMoment;
     TwistStretch twistStretch = TwistStretch::DampOnly;
+    /// Turn δΓ by the frames' rotation over the step, R(−2θ) in eq 76's exp(−δt W) (true: the
+    /// notes, eq 78), or leave its lattice components as they are (false, the default): Γ's
+    /// lattice components do not change under a rigid motion, and with shape memory the
+    /// rotation pumps the twist up (a spinning jelly at k = 1000: Σ|δΓ|² ×2,000 in 4 s;
+    /// docs/math.md, "Twist").
+    bool twistRotation = false;
     Real maxDeltaGamma = 0.05;        ///< limiter: |δΓ| (Frobenius over the 18 components, per
                                       ///< lattice step) per point per step
     /// Carry the connection change that happened (Γ_new − Γ_old, after every constraint) as the

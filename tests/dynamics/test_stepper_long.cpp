@@ -62,6 +62,53 @@ std::vector<Vec3> nonAffine(const std::vector<Vec3>& x, const std::vector<Vec3>&
 
 }  // namespace
 
+// The twist's transport with shape memory (docs/math.md, "Twist"): a stiff jelly (k = 1000/s²,
+// ζ = 2/s, 8 voxels' radius) set spinning by a brief off-centre vortex, then 4 s of free flight.
+// Damping should make Σ|δΓ|² settle; with the notes' rotation of δΓ (R(−2θ) in eq 76) it grows
+// instead; dgv's default, which leaves δΓ's lattice components alone under rotation as Γ's are,
+// keeps it bounded. (A ball of 3 voxels' radius grows ~10× either way: its boundary layer is
+// all there is, docs/math.md.)
+TEST_CASE("stepper: a stiff spinning jelly keeps its twist bounded in free flight", "[dynamics][stepper][long]") {
+    const Real h = 0.0625;
+    const Lattice lat = ball(8, h, Vec3(-0.2, 0, 0));
+    ForceField field;
+    ForceTerm swirl = vortex(Keyframes{{{1, 0}, {4, 4}, {8, 0}}}, 1.0);
+    swirl.axis = Vec3::UnitZ();
+    field.add(swirl);
+    struct Outcome {
+        Real afterPush = 0, lastSecond = 0;
+        std::string fault;
+    };
+    auto run = [&](bool rotation) {
+        DynamicsSettings jelly;
+        jelly.shapeStiffness = 1000;
+        jelly.damping = 2;
+        jelly.twistRotation = rotation;
+        DeformableBody body(lat, restPositions(lat), jelly);
+        Outcome o;
+        const int substeps = 4, frames = 104;
+        for (int f = 1; f <= frames && o.fault.empty(); ++f)
+            for (int s = 0; s < substeps && o.fault.empty(); ++s) {
+                const StepReport r = body.step(field, f + static_cast<Real>(s) / substeps, 1.0 / 96, {});
+                o.fault = r.fault;
+                if (f == 8) o.afterPush = std::max(o.afterPush, r.sumDeltaGamma2);
+                if (f > frames - 24) o.lastSecond = std::max(o.lastSecond, r.sumDeltaGamma2);
+            }
+        return o;
+    };
+    const Outcome fixed = run(false);
+    const Outcome notes = run(true);
+    if (verbose())
+        std::printf("spinning jelly k = 1000: sum dGamma^2 after the push %.3g, largest in the last second %.3g (%s); "
+                    "with the notes' rotation %.3g -> %.3g (%s)\n",
+                    fixed.afterPush, fixed.lastSecond, fixed.fault.c_str(), notes.afterPush, notes.lastSecond,
+                    notes.fault.c_str());
+    REQUIRE(fixed.fault.empty());
+    REQUIRE(fixed.afterPush > 0);
+    CHECK(fixed.lastSecond < 2 * fixed.afterPush);
+    CHECK((!notes.fault.empty() || notes.lastSecond > 10 * notes.afterPush));
+}
+
 TEST_CASE("stepper: a jelly under a strong alternating vortex for 1000 frames", "[dynamics][stepper][long]") {
     // A ball of 4 voxels' radius whose centre is 0.1 m from the axis of a vortex (so the axis runs
     // through it and the core turns faster than the rim), strength swinging between +4 and −4 m/s²
