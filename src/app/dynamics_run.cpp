@@ -7,6 +7,7 @@
 #include "io/atomic_file.hpp"
 #include "io/state_file.hpp"
 #include "io/vdb_cache.hpp"
+#include "io/vdb_read.hpp"
 
 #include <algorithm>
 #include <filesystem>
@@ -45,6 +46,10 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
     std::vector<const Lattice*> lattices;
     for (const BuiltObject& o : objects) lattices.push_back(&o.lattice);
     mSim = std::make_unique<Simulation>(scene, lattices, writeVdb);
+    // Objects colliding with each other (collision.objects): their surfaces as OpenVDB distances.
+    mSim->setSurfaceDistance([](const TriangleMesh& mesh, Real voxel, int band) {
+        return meshLevelSet(mesh, voxel, band, "an object's deformed surface");
+    });
     mRows.push_back(statsCsvHeader());
     if (mSim->active()) mSceneKey = sceneDynamicsKey(scene, lattices);
 }

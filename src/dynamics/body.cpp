@@ -12,13 +12,6 @@
 namespace dgv {
 namespace {
 
-/// Whether the lattice cell with lowest corner u has all 8 corners material.
-bool completeCell(const Lattice& lat, const Vec3i& u) {
-    for (int c = 0; c < 8; ++c)
-        if (lat.pointAt(u + Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)) == kNoPoint) return false;
-    return true;
-}
-
 struct MomentSums {
     Real mass = 0;
     Vec3 force = Vec3::Zero();
@@ -40,7 +33,7 @@ std::vector<Real> pointMasses(const Lattice& lat, Real density, MassRule rule) {
         const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
         int cells = 0;
         for (int c = 0; c < 8; ++c)
-            cells += completeCell(lat, u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)) ? 1 : 0;
+            cells += isCompleteCell(lat, u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)) ? 1 : 0;
         m[static_cast<std::size_t>(p)] = cellMass * cells / 8;
     });
     return m;

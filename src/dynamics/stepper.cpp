@@ -519,7 +519,7 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
             std::vector<unsigned char>& R = responds[c];
             if (mDetector) {
                 R.assign(at(n), 0);
-                mDetector(xNew, c, R);
+                mDetector(xNew, colliders[c], R);
             } else {
                 R = truth;
             }

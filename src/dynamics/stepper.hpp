@@ -198,7 +198,7 @@ public:
     /// Points in R are pushed out where φ < 0 and held by the volume projection. Empty: the
     /// signed-distance test.
     using ContactDetector =
-        std::function<void(const std::vector<Vec3>& x, std::size_t collider, std::vector<unsigned char>& R)>;
+        std::function<void(const std::vector<Vec3>& x, const Collider& collider, std::vector<unsigned char>& R)>;
     void setContactDetector(ContactDetector detector) { mDetector = std::move(detector); }
 
     const Lattice& lattice() const { return mLat; }

@@ -125,6 +125,12 @@ bool isBoundaryPoint(const Lattice& lat, Index p) {
     return false;
 }
 
+bool isCompleteCell(const Lattice& lat, const Vec3i& u) {
+    for (int c = 0; c < 8; ++c)
+        if (lat.pointAt(u + Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)) == kNoPoint) return false;
+    return true;
+}
+
 std::vector<Index> boundaryPoints(const Lattice& lat) {
     std::vector<Index> out;
     for (Index p = 0; p < lat.size(); ++p)

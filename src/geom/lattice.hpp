@@ -51,4 +51,8 @@ bool isBoundaryPoint(const Lattice& lat, Index p);
 /// The boundary points (isBoundaryPoint), in increasing point order.
 std::vector<Index> boundaryPoints(const Lattice& lat);
 
+/// Whether the lattice cell with lowest corner u has all 8 corners material (a complete cell:
+/// the cells the volume is kept on).
+bool isCompleteCell(const Lattice& lat, const Vec3i& u);
+
 }  // namespace dgv

@@ -316,6 +316,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         const std::string detect = c.choice("detect", "sdf", {"sdf", "gln"});
         s.collision.detect = detect == "gln" ? CollisionDesc::Detect::Gln : CollisionDesc::Detect::Sdf;
         s.collision.coarseToFine = c.boolean("coarse_to_fine", false);
+        s.collision.objects = c.boolean("objects", s.collision.objects);
+        s.collision.friction = c.number("friction", s.collision.friction, 0, 1);
+        s.collision.restitution = c.number("restitution", s.collision.restitution, 0, 1);
     });
 
     r.array("objects", [&](ObjectReader& o, int i) {

@@ -207,6 +207,11 @@ struct CollisionDesc {
     enum class Detect { Sdf, Gln };
     Detect detect = Detect::Sdf;   ///< sdf: every point with signed distance < 0; gln: the GLN network's R
     bool coarseToFine = false;     ///< gln: coarse rings first, fine rings only inside linked ones
+    /// Deformable objects collide with each other (each one's deformed lattice surface is a
+    /// signed-distance collider for the others, rebuilt every substep; sim/body_contact.hpp).
+    bool objects = true;
+    Real friction = 0.5;           ///< between objects: 0 slip .. 1 stick
+    Real restitution = 0;          ///< between objects: 0..1
 };
 
 struct SceneDesc {

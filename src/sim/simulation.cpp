@@ -7,6 +7,7 @@
 #include "base/types.hpp"
 #include "collide/gln_network.hpp"
 #include "sim/forces_from_scene.hpp"
+#include "sim/body_contact.hpp"
 #include "sim/levelset_collider.hpp"
 
 #include <algorithm>
@@ -87,17 +88,17 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
     }
     // GLN contact detection (docs/gln.md): a network per body, R per collider and step.
     mNetworks.resize(mBodies.size());
-    if (scene.collision.detect == CollisionDesc::Detect::Gln && !mColliders.empty())
+    const int movingBodies = static_cast<int>(std::count_if(mBodies.begin(), mBodies.end(), [](const auto& b) { return b != nullptr; }));
+    const bool objectContact = scene.collision.objects && movingBodies >= 2;
+    if (scene.collision.detect == CollisionDesc::Detect::Gln && (!mColliders.empty() || objectContact))
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
             if (!mBodies[i]) continue;
             GlnNetworkSettings gs;
             gs.coarseToFine = scene.collision.coarseToFine;
             mNetworks[i] = std::make_unique<GlnNetwork>(*lattices[i], gs);
             const GlnNetwork* net = mNetworks[i].get();
-            const std::vector<Collider>* cols = &mColliders;
             mBodies[i]->setContactDetector(
-                [net, cols](const std::vector<Vec3>& x, std::size_t c, std::vector<unsigned char>& R) {
-                    const Collider& col = (*cols)[c];
+                [net](const std::vector<Vec3>& x, const Collider& col, std::vector<unsigned char>& R) {
                     const SignedDistance phi = [&col](const Vec3& p, Vec3* g) {
                         Vec3 gg;
                         const Real v = col.evaluate(p, gg);
@@ -111,6 +112,51 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
 }
 
 Simulation::~Simulation() = default;
+
+std::vector<std::vector<Collider>> Simulation::substepColliders() const {
+    const std::size_t n = mBodies.size();
+    std::vector<std::vector<Collider>> out(n, mColliders);
+    int moving = 0;
+    for (const auto& b : mBodies) moving += b ? 1 : 0;
+    if (!mScene.collision.objects || !mSurfaceDistance || moving < 2) return out;
+    // Each body's lattice points are kept (h_i + h_j)/2 outside body j's lattice surface: the
+    // rendered surfaces reach about half a voxel beyond the lattice points, so the two meet.
+    std::vector<Box3> boxes(n);
+    for (std::size_t i = 0; i < n; ++i)
+        if (mBodies[i])
+            for (const Vec3& x : mBodies[i]->positions()) boxes[i].extend(x);
+    std::vector<std::shared_ptr<const SdfGrid>> surfaces(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!mBodies[i]) continue;
+        const Real hi = mBodies[i]->lattice().spacing;
+        for (std::size_t j = 0; j < n; ++j) {
+            if (j == i || !mBodies[j]) continue;
+            const Real hj = mBodies[j]->lattice().spacing;
+            const Real margin = 0.5 * (hi + hj);
+            // Close enough to touch this substep: the boxes within the margin and two voxels.
+            const Real pad = margin + 2 * std::max(hi, hj);
+            if ((boxes[i].min.array() > boxes[j].max.array() + pad).any() ||
+                (boxes[j].min.array() > boxes[i].max.array() + pad).any())
+                continue;
+            if (!surfaces[j]) {
+                const Real voxel = 0.5 * hj;
+                const int band = std::max(3, static_cast<int>(std::ceil(2 * pad / voxel)) + 2);
+                surfaces[j] = std::make_shared<const SdfGrid>(
+                    mSurfaceDistance(latticeSurface(mBodies[j]->lattice(), mBodies[j]->positions()), voxel, band));
+            }
+            Collider c;
+            c.kind = Collider::Kind::Distance;
+            c.friction = mScene.collision.friction;
+            c.restitution = mScene.collision.restitution;
+            c.distance = [grid = surfaces[j], margin](const Vec3& x, Vec3* g) {
+                if (g) *g = grid->gradient(x);
+                return grid->distance(x) - margin;
+            };
+            out[i].push_back(std::move(c));
+        }
+    }
+    return out;
+}
 
 const DeformableBody* Simulation::body(std::size_t object) const {
     return object < mBodies.size() ? mBodies[object].get() : nullptr;
@@ -153,9 +199,10 @@ FrameStats Simulation::advanceTo(int frame) {
         const Real fieldFrame = (frame - 1) + Real(k) / sub;
         const auto t0 = std::chrono::steady_clock::now();
         bool first = true;
+        const std::vector<std::vector<Collider>> colliders = substepColliders();
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
             if (!mBodies[i]) continue;
-            const StepReport r = mBodies[i]->step(mField, fieldFrame, dt, mColliders);
+            const StepReport r = mBodies[i]->step(mField, fieldFrame, dt, colliders[i]);
             const std::string where = "frame " + std::to_string(frame) + ", substep " + std::to_string(k + 1) +
                                       ", object '" + mScene.objects[i].name + "'";
             if (!r.fault.empty()) throw RuntimeError("dynamics: " + where + ": " + r.fault);

@@ -11,8 +11,11 @@
 #include "dynamics/forces.hpp"
 #include "dynamics/stepper.hpp"
 #include "geom/lattice.hpp"
+#include "geom/sdf_grid.hpp"
+#include "geom/triangle_mesh.hpp"
 #include "sim/scene.hpp"
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -79,7 +82,18 @@ public:
     /// The body of scene object i, or nullptr.
     const DeformableBody* body(std::size_t object) const;
 
+    /// Turns a closed triangle mesh into a signed-distance grid (world units, negative inside)
+    /// of voxel `voxelSize`, exact `bandVoxels` voxels out and filled inside: the app passes
+    /// io's meshLevelSet (the core has no OpenVDB). Objects collide with each other
+    /// (collision.objects) only when it is set.
+    using SurfaceDistance = std::function<SdfGrid(const TriangleMesh& mesh, Real voxelSize, int bandVoxels)>;
+    void setSurfaceDistance(SurfaceDistance f) { mSurfaceDistance = std::move(f); }
+
 private:
+    /// The colliders each body meets this substep: the scene's, then the surfaces of the other
+    /// bodies near it, built from the positions before any body steps.
+    std::vector<std::vector<Collider>> substepColliders() const;
+    SurfaceDistance mSurfaceDistance;
     const SceneDesc& mScene;
     ForceField mField;
     std::vector<Collider> mColliders;

@@ -268,7 +268,7 @@ TEST_CASE("gln contacts: cost per step, 24-voxel ball", "[.bench][gln]") {
         std::vector<Collider> cols(1);
         cols[0].kind = Collider::Kind::Plane;
         if (gln)
-            body.setContactDetector([&](const std::vector<Vec3>& y, std::size_t, std::vector<unsigned char>& R) {
+            body.setContactDetector([&](const std::vector<Vec3>& y, const Collider&, std::vector<unsigned char>& R) {
                 net.contactSet(y, plane(0), R);
             });
         ForceField f;
@@ -307,7 +307,7 @@ TEST_CASE("gln contacts: the response reflects the depth by the restitution, wit
             DeformableBody body(lat, restPositions(lat), set);
             GlnNetwork net(lat);
             if (gln)
-                body.setContactDetector([&](const std::vector<Vec3>& y, std::size_t, std::vector<unsigned char>& R) {
+                body.setContactDetector([&](const std::vector<Vec3>& y, const Collider&, std::vector<unsigned char>& R) {
                     net.contactSet(y, plane(0), R);
                 });
             std::vector<Collider> cols(1);

@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -48,6 +50,27 @@ inline Run runDgvIn(const fs::path& cwd, const std::string& args, const std::str
     r.err = readAll(errFile);
     fs::remove_all(capture);
     return r;
+}
+
+/// A stats.csv as rows of named columns (numbers; "nan" reads as NaN).
+inline std::vector<std::map<std::string, double>> readStatsCsv(const fs::path& p) {
+    std::istringstream in(readAll(p));
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::string> names;
+    {
+        std::istringstream h(line);
+        for (std::string w; std::getline(h, w, ',');) names.push_back(w);
+    }
+    std::vector<std::map<std::string, double>> rows;
+    while (std::getline(in, line)) {
+        std::istringstream r(line);
+        std::map<std::string, double> row;
+        std::size_t i = 0;
+        for (std::string w; std::getline(r, w, ',') && i < names.size(); ++i) row[names[i]] = std::strtod(w.c_str(), nullptr);
+        rows.push_back(row);
+    }
+    return rows;
 }
 
 /// Every path under `dir` (relative, sorted), folders included.

@@ -29,27 +29,6 @@ namespace {
 
 constexpr int kFrames = 6;
 
-/// stats.csv as rows of named columns.
-std::vector<std::map<std::string, double>> readStats(const fs::path& p) {
-    std::istringstream in(readAll(p));
-    std::string line;
-    std::getline(in, line);
-    std::vector<std::string> names;
-    {
-        std::istringstream h(line);
-        for (std::string w; std::getline(h, w, ',');) names.push_back(w);
-    }
-    std::vector<std::map<std::string, double>> rows;
-    while (std::getline(in, line)) {
-        std::istringstream r(line);
-        std::map<std::string, double> row;
-        std::size_t i = 0;
-        for (std::string w; std::getline(r, w, ',') && i < names.size(); ++i) row[names[i]] = std::strtod(w.c_str(), nullptr);
-        rows.push_back(row);
-    }
-    return rows;
-}
-
 }  // namespace
 
 TEST_CASE("e2e: cell volumes from a written cache's position grid agree with volume_ratio and stats.csv",
@@ -70,7 +49,7 @@ TEST_CASE("e2e: cell volumes from a written cache's position grid agree with vol
     const Run r = runDgvIn(dir.path(), "-q simulate swirl.json --out o --vdb");
     INFO("stderr: " << r.err);
     REQUIRE(r.exitCode == 0);
-    const auto stats = readStats(dir.path() / "o" / "stats.csv");
+    const auto stats = readStatsCsv(dir.path() / "o" / "stats.csv");
     REQUIRE(stats.size() == std::size_t(kFrames));
 
     openvdb::initialize();

@@ -1,0 +1,21 @@
+#pragma once
+/// @file body_contact.hpp
+/// @brief Contact between deformable objects (scene key collision.objects): each object's
+/// deformed lattice surface, turned into a signed distance at the start of every substep, is a
+/// collider for the others (docs/gln.md, "Objects colliding").
+
+#include "base/types.hpp"
+#include "geom/lattice.hpp"
+#include "geom/triangle_mesh.hpp"
+
+#include <vector>
+
+namespace dgv {
+
+/// The closed surface of a deformed lattice at positions x (#P): the outer faces of its complete
+/// cells (cells whose 8 corners are material points; a face is outer when the cell across it is
+/// not complete), two triangles per face, counter-clockwise seen from outside. The vertices are
+/// the material points on those faces, at x. Points in no complete cell are not on it.
+TriangleMesh latticeSurface(const Lattice& lat, const std::vector<Vec3>& x);
+
+}  // namespace dgv

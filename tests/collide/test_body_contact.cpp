@@ -1,0 +1,119 @@
+// Contact between deformable objects (src/sim/body_contact.hpp, scene key collision.objects):
+// the deformed lattice surface each object is to the others, and two jelly balls thrown at each
+// other, which squash, bounce apart and never pass into each other.
+#include <catch2/catch.hpp>
+
+#include "e2e/e2e_run.hpp"
+#include "geom/lattice.hpp"
+#include "sim/body_contact.hpp"
+#include "support/helpers.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <utility>
+
+using namespace dgv;
+
+namespace {
+
+/// Signed volume enclosed by a triangle mesh (divergence theorem): positive when the
+/// triangles run counter-clockwise seen from outside.
+Real enclosedVolume(const TriangleMesh& m) {
+    Real v = 0;
+    for (const auto& t : m.triangles)
+        v += m.vertices[t[0]].dot(m.vertices[t[1]].cross(m.vertices[t[2]])) / 6;
+    return v;
+}
+
+}  // namespace
+
+TEST_CASE("body contact: a lattice's surface is closed, outward and encloses its cells", "[collide][body]") {
+    // 4 x 3 x 3 points: 3 x 2 x 2 complete cells, plus one loose point that belongs to no cell.
+    const Vec3i dims(5, 3, 3);
+    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
+    for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 3; ++j)
+            for (int i = 0; i < 4; ++i) mask[static_cast<std::size_t>(i + 5 * (j + 3 * k))] = 1;
+    mask[static_cast<std::size_t>(4 + 5 * (1 + 3 * 1))] = 1;  // (4, 1, 1): no complete cell
+    const Real h = 0.1;
+    const Lattice lat = buildLattice(Vec3(1, 2, 3), h, dims, mask);
+    std::vector<Vec3> x = restPositions(lat);
+    TriangleMesh s = latticeSurface(lat, x);
+    // Faces: 2 (2 x 2 ends) + 2 (3 x 2) + 2 (3 x 2) = 8 + 12 + 12 = 32, two triangles each.
+    REQUIRE(s.triangles.size() == 64);
+    REQUIRE(s.vertices.size() == std::size_t(4 * 3 * 3 - 2));  // all points but the cube's two centre ones
+    CHECK(enclosedVolume(s) == Approx(12 * h * h * h).epsilon(1e-12));
+    // Closed and consistently oriented: every directed edge appears once, its reverse once.
+    std::map<std::pair<int, int>, int> edges;
+    for (const auto& t : s.triangles)
+        for (int e = 0; e < 3; ++e) ++edges[{t[e], t[(e + 1) % 3]}];
+    for (const auto& [e, count] : edges) {
+        CHECK(count == 1);
+        CHECK(edges.count({e.second, e.first}) == 1);
+    }
+    // It follows the deformed positions: a shear and a stretch of 2 along x (volume x 2).
+    for (Vec3& p : x) p = Vec3(2 * p.x() + 0.3 * p.y(), p.y(), p.z());
+    s = latticeSurface(lat, x);
+    CHECK(enclosedVolume(s) == Approx(24 * h * h * h).epsilon(1e-12));
+}
+
+namespace {
+
+/// Two jelly balls (0.3 m, 16 voxels across) 1 m apart, thrown at each other at 1.2 m/s each,
+/// no gravity; `collision` is the scene's collision object.
+void writeBlobs(const std::filesystem::path& dir, const std::string& collision) {
+    std::ofstream(dir / "blobs.json") << R"({ "name": "blobs", "frames": { "start": 1, "end": 24, "fps": 24 }, "substeps": 4,
+  "objects": [
+    { "name": "left", "primitive": { "type": "sphere", "radius": 0.3 }, "resolution": 16,
+      "transform": { "translate": [-0.5, 0.4, 0] }, "material": { "damping": 2, "stiffness": 100 },
+      "velocity": [1.2, 0, 0] },
+    { "name": "right", "primitive": { "type": "sphere", "radius": 0.3 }, "resolution": 16,
+      "transform": { "translate": [0.5, 0.45, 0] }, "material": { "damping": 2, "stiffness": 100 },
+      "velocity": [-1.2, 0, 0] } ],
+  "collision": )" << collision << R"( })";
+}
+
+}  // namespace
+
+TEST_CASE("body contact: two jelly balls thrown at each other squash, bounce apart and never interpenetrate",
+          "[collide][body][e2e]") {
+    test::TempDir dir("blobs");
+    // Without contact between objects they pass through each other: kinetic energy unchanged.
+    writeBlobs(dir.path(), R"({ "objects": false })");
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q simulate blobs.json --out off").exitCode == 0);
+    const auto off = e2e::readStatsCsv(dir.path() / "off" / "stats.csv");
+    REQUIRE(off.size() == 24);
+    const Real ke0 = off.front().at("kinetic_energy");
+    for (const auto& row : off) CHECK(row.at("kinetic_energy") == Approx(ke0).epsilon(1e-6));
+    for (const std::string detect : {"sdf", "gln"}) {
+        INFO(detect);
+        writeBlobs(dir.path(), R"({ "restitution": 0.3, "detect": ")" + detect + R"(" })");
+        const e2e::Run run = e2e::runDgvIn(dir.path(), "-q simulate blobs.json --out " + detect);
+        REQUIRE(run.exitCode == 0);
+        const auto rows = e2e::readStatsCsv(dir.path() / detect / "stats.csv");
+        REQUIRE(rows.size() == 24);
+        Real lowest = ke0, maxPen = 0, maxErr = 0, maxDrift = 0;
+        int lowestFrame = 0, contactFrames = 0;
+        for (const auto& row : rows) {
+            if (row.at("kinetic_energy") < lowest) lowest = row.at("kinetic_energy"), lowestFrame = int(row.at("frame"));
+            maxPen = std::max(maxPen, row.at("max_penetration"));
+            maxErr = std::max(maxErr, row.at("max_cell_volume_error"));
+            maxDrift = std::max(maxDrift, std::abs(row.at("total_volume_drift")));
+            contactFrames += row.at("contacts") > 0 ? 1 : 0;
+            CHECK(row.at("inverted_cells") == 0);
+        }
+        const Real last = rows.back().at("kinetic_energy");
+        // The balls meet after ~0.17 s (frame 5) and stop each other: nearly all the motion goes
+        // into the squash, then the shape memory and the restitution push them apart again.
+        CHECK(lowest < 0.05 * ke0);
+        CHECK(lowestFrame > 5);
+        CHECK(lowestFrame < 16);
+        CHECK(last > 0.2 * ke0);
+        CHECK(last < ke0);
+        CHECK(contactFrames >= 2);
+        CHECK(maxPen < 0.1);  // voxels, against the other object's surface (and margin)
+        CHECK(maxErr <= 1e-4);
+        CHECK(maxDrift <= 1e-6);
+    }
+}
