@@ -134,6 +134,13 @@ void render(std::ostream& out, const BenchOptions& options) {
     {
         namespace fs = std::filesystem;
         const fs::path plainDir = fs::temp_directory_path() / ("dgv-bench-plain-" + std::to_string(::getpid()));
+        struct RemoveAtExit {  // also when the renderer throws
+            fs::path dir;
+            ~RemoveAtExit() {
+                std::error_code ignored;
+                fs::remove_all(dir, ignored);
+            }
+        } cleanup{plainDir};
         fs::create_directories(plainDir);
         for (const auto& entry : fs::directory_iterator(findShaderDir()))
             if (entry.is_regular_file()) fs::copy_file(entry.path(), plainDir / entry.path().filename());
@@ -162,8 +169,6 @@ void main() {
                 if (f > 0) ms.push_back(renderer.lastTimings().sceneMs);
             }
         }
-        std::error_code ignored;
-        fs::remove_all(plainDir, ignored);
         plainMs = median(ms);
     }
 

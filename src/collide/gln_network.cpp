@@ -189,11 +189,9 @@ std::vector<ClosedCurve> needleLoops(const std::vector<Vec3>& x, const std::vect
 GlnNetwork::GlnNetwork(const Lattice& lat, const GlnNetworkSettings& st) : mLat(lat), mSet(st) {
     const Index n = lat.size();
     mFineOf.assign(at(n), -1);
+    const std::vector<Index> bpoints = boundaryPoints(lat);
     std::vector<unsigned char> boundary(at(n), 0);
-    for (Index p = 0; p < n; ++p) boundary[at(p)] = isBoundaryPoint(lat, p) ? 1 : 0;
-    std::vector<Index> bpoints;
-    for (Index p = 0; p < n; ++p)
-        if (boundary[at(p)]) bpoints.push_back(p);
+    for (Index p : bpoints) boundary[at(p)] = 1;
     std::vector<Vec3> normal(bpoints.size());
     parallelFor(static_cast<Index>(bpoints.size()),
                 [&](Index k) { normal[at(k)] = restNormal(lat, bpoints[at(k)]); });

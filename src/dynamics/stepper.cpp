@@ -414,12 +414,10 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
             for (std::size_t c = 0; c < 3; ++c) acc += gammaBar[c][at(p)].squaredNorm();
             return acc;
         };
-        const Real largest = parallelReduce(
-            n, Real(0), [&](Real& acc, Index p) { acc = std::max(acc, size2(p)); },
-            [](Real a, Real b) { return std::max(a, b); });
-        bool finite = true;
-        for (Index p = 0; p < n && finite; ++p) finite = std::isfinite(size2(p));
-        if (!finite || !(largest <= kMaxGamma * kMaxGamma)) {
+        const Index folded = parallelReduce(
+            n, Index(0), [&](Index& acc, Index p) { acc += !(size2(p) <= kMaxGamma * kMaxGamma) ? 1 : 0; },
+            [](Index a, Index b) { return a + b; });
+        if (folded > 0) {
             Index worst = 0;
             for (Index p = 0; p < n; ++p)
                 if (!(size2(p) <= size2(worst))) worst = p;

@@ -88,9 +88,9 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
     }
     // GLN contact detection (docs/gln.md): a network per body, R per collider and step.
     mNetworks.resize(mBodies.size());
-    const int movingBodies = static_cast<int>(std::count_if(mBodies.begin(), mBodies.end(), [](const auto& b) { return b != nullptr; }));
-    const bool objectContact = scene.collision.objects && movingBodies >= 2;
-    if (scene.collision.detect == CollisionDesc::Detect::Gln && (!mColliders.empty() || objectContact))
+    mObjectContact = scene.collision.objects &&
+                     std::count_if(mBodies.begin(), mBodies.end(), [](const auto& b) { return b != nullptr; }) >= 2;
+    if (scene.collision.detect == CollisionDesc::Detect::Gln && (!mColliders.empty() || mObjectContact))
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
             if (!mBodies[i]) continue;
             GlnNetworkSettings gs;
@@ -116,9 +116,7 @@ Simulation::~Simulation() = default;
 std::vector<std::vector<Collider>> Simulation::substepColliders() const {
     const std::size_t n = mBodies.size();
     std::vector<std::vector<Collider>> out(n, mColliders);
-    int moving = 0;
-    for (const auto& b : mBodies) moving += b ? 1 : 0;
-    if (!mScene.collision.objects || !mSurfaceDistance || moving < 2) return out;
+    if (!mObjectContact || !mSurfaceDistance) return out;
     // Each body's lattice points are kept (h_i + h_j)/2 outside body j's lattice surface: the
     // rendered surfaces reach about half a voxel beyond the lattice points, so the two meet.
     std::vector<Box3> boxes(n);

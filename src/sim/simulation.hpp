@@ -94,6 +94,7 @@ private:
     /// bodies near it, built from the positions before any body steps.
     std::vector<std::vector<Collider>> substepColliders() const;
     SurfaceDistance mSurfaceDistance;
+    bool mObjectContact = false;  ///< collision.objects and at least two bodies
     const SceneDesc& mScene;
     ForceField mField;
     std::vector<Collider> mColliders;
