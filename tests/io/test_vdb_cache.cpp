@@ -457,8 +457,12 @@ TEST_CASE("vdb_cache: vdb_print lists every grid and reports a truncated copy", 
     CHECK(out.find("file_compression: blosc + active values") != std::string::npos);
     CHECK(out.find("creator: dgv") != std::string::npos);
 
+    // Cut inside the grids and inside the header. Not just before the end: vdb_print (OpenVDB
+    // 10.0) given a file short by its last byte reads a garbage size and allocates until it is
+    // killed or dies of std::bad_alloc, without printing ERROR (measured 3 of 3 on a jelly_drop
+    // frame; OOM-killed after 71-88 s; CI stop 14 failed on it). docs/vdb.md, "Safe writing".
     const fs::path t = dir.path() / "cut.vdb";
-    for (std::uintmax_t keep : {fs::file_size(p) - 1, fs::file_size(p) / 2, std::uintmax_t(100)}) {
+    for (std::uintmax_t keep : {fs::file_size(p) / 2, fs::file_size(p) / 4, std::uintmax_t(100)}) {
         INFO("kept " << keep << " bytes");
         truncateCopy(p, t, keep);
         CHECK(runCapture("vdb_print -l -m '" + t.string() + "'").find("ERROR") != std::string::npos);
