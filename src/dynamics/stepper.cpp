@@ -271,6 +271,11 @@ void DeformableBody::setAffineVelocity(const Vec3& velocity, const Mat3& gradien
         mV[at(p)] = mPinned[at(p)] ? Vec3(Vec3::Zero()) : Vec3(velocity + gradient * (mX[at(p)] - mC));
 }
 
+void DeformableBody::shiftVelocity(const Vec3& dv) {
+    mVc += dv;
+    parallelFor(mLat.size(), [&](Index p) { mV[at(p)] += dv; });
+}
+
 void DeformableBody::setRigidVelocity(const Vec3& velocity, const Vec3& angularVelocity) {
     Mat3 W;
     W << 0, -angularVelocity.z(), angularVelocity.y(), angularVelocity.z(), 0, -angularVelocity.x(),
@@ -314,7 +319,14 @@ void DeformableBody::volumeFigures(Real& maxCellError, Real& totalDrift, Index& 
 }
 
 StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, const std::vector<Collider>& colliders) {
+    StepReport r = predict(field, frame, dt);
+    if (!mPredicted) return r;
+    return finish(colliders);
+}
+
+StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt) {
     DGV_CHECK(dt > 0);
+    mPredicted = false;
     const auto tStart = Clock::now();
     StepReport report;
     const Index n = mLat.size();
@@ -495,24 +507,53 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
         });
     }
     report.reconstructSeconds = since(t);
+    mXPred = std::move(xNew);
+    mCPred = cNew;
+    mVcPred = vcBefore;
+    mAPred = aNew;
+    mDtPred = dt;
+    report.totalSeconds = since(tStart);
+    mPredReport = report;
+    mPredicted = true;
+    return report;
+}
+
+StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
+    DGV_CHECK(mPredicted);
+    mPredicted = false;
+    const auto tStart = Clock::now();
+    StepReport report = mPredReport;
+    const Index n = mLat.size();
+    const Real h = mLat.spacing;
+    const Real dt = mDtPred;
+    std::vector<Vec3> xNew = std::move(mXPred);
+    mXPred.clear();
+    const Vec3 cNew = mCPred, vcBefore = mVcPred;
+    const Mat3 aNew = mAPred;
 
     // 5. Colliders.
-    t = Clock::now();
+    auto t = Clock::now();
     std::fill(mContact.begin(), mContact.end(), 0);
     std::fill(mContactDepth.begin(), mContactDepth.end(), Real(0));
+    // The points that respond, per collider: the GLN network's R (eqs 90-91, collide/gln_network)
+    // or, without a detector, every point inside some collider.
+    std::vector<std::vector<unsigned char>> responds(colliders.size());
+    // Another body's surface: φ at the predicted positions, before any response (its push is shared).
+    std::vector<std::vector<Real>> phi0(colliders.size());
     if (!colliders.empty()) {
         // The truth the contact set is measured against: φ < 0 for some collider, before the response.
         std::vector<unsigned char> truth(at(n), 0);
+        for (std::size_t c = 0; c < colliders.size(); ++c)
+            if (colliders[c].object) phi0[c].assign(at(n), Real(0));
         parallelFor(n, [&](Index p) {
             if (mPinned[at(p)]) return;
-            for (const Collider& col : colliders) {
+            for (std::size_t c = 0; c < colliders.size(); ++c) {
                 Vec3 g;
-                if (col.evaluate(xNew[at(p)], g) < 0) truth[at(p)] = 1;
+                const Real phi = colliders[c].evaluate(xNew[at(p)], g);
+                if (phi < 0) truth[at(p)] = 1;
+                if (colliders[c].object) phi0[c][at(p)] = phi;
             }
         });
-        // The points that respond, per collider: the GLN network's R (eqs 90-91, collide/gln_network)
-        // or, without a detector, every point inside some collider.
-        std::vector<std::vector<unsigned char>> responds(colliders.size());
         for (std::size_t c = 0; c < colliders.size(); ++c) {
             std::vector<unsigned char>& R = responds[c];
             if (mDetector) {
@@ -540,7 +581,7 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
                     const Real gn = g.norm();
                     if (gn > 0 && -phi / gn > deepest) {
                         deepest = -phi / gn;
-                        lift = (1 + colliders[c].restitution) * deepest;
+                        lift = colliders[c].share * ((1 + colliders[c].restitution) * deepest);
                         nrm = g / gn;
                     }
                 }
@@ -593,13 +634,36 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
             x -= col.friction * (s - s.dot(nrm) * nrm);
             mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phi / gn);
         };
+        // Another body's surface: this body's share of the push the prediction asked for,
+        // share × (1 + restitution) × its depth then (the body and flex may have taken part of
+        // it already), and the share of the friction on the step relative to the other body.
+        auto respondShared = [&](Index p, const Collider& col, Real phiBefore) {
+            if (!(phiBefore < 0)) return;
+            Vec3& x = xNew[at(p)];
+            Vec3 g;
+            const Real phi = col.evaluate(x, g);
+            const Real gn = g.norm();
+            if (!(gn > 0)) return;
+            const Vec3 nrm = g / gn;
+            const Real target = phiBefore * (1 - col.share * (1 + col.restitution));  // φ after the push
+            if (phi < target) x += ((target - phi) / gn) * nrm;
+            const Vec3 s = x - mX[at(p)] - dt * col.velocity;
+            x -= (col.share * col.friction) * (s - s.dot(nrm) * nrm);
+            mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phiBefore / gn);
+        };
         parallelFor(n, [&](Index p) {
             for (std::size_t c = 0; c < colliders.size(); ++c) {
                 if (!responds[c][at(p)]) continue;
                 mContact[at(p)] = 1;
-                respond(p, colliders[c]);
+                if (colliders[c].object)
+                    respondShared(p, colliders[c], phi0[c][at(p)]);
+                else
+                    respond(p, colliders[c]);
             }
         });
+        for (std::size_t c = 0; c < colliders.size(); ++c)
+            if (!colliders[c].object && std::count(responds[c].begin(), responds[c].end(), 1) > 0)
+                report.staticContact = true;
         for (Index p = 0; p < n; ++p) {
             report.contactTruth += truth[at(p)];
             if (truth[at(p)] && mContact[at(p)]) ++report.contactTruePositive;
@@ -623,6 +687,7 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
             n, Real(0),
             [&](Real& acc, Index p) {
                 for (const Collider& col : colliders) {
+                    if (col.object) continue;  // measured by the caller once both bodies moved
                     Vec3 g;
                     const Real phi = col.evaluate(xNew[at(p)], g);
                     const Real gn = g.norm();
@@ -650,6 +715,7 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
             for (Index p = 0; p < n; ++p) {
                 if (!mContact[at(p)]) continue;
                 for (const Collider& col : colliders) {
+                    if (col.object) continue;  // below
                     Vec3 g;
                     if (col.evaluate(xNew[at(p)], g) <= 1e-9 * h) {
                         nSum += g;
@@ -722,7 +788,7 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
     if (report.invertedCells > 0 && report.fault.empty())
         report.fault = std::to_string(report.invertedCells) +
                        " lattice cells inverted (the shape folded): use more damping, stiffness or substeps";
-    report.totalSeconds = since(tStart);
+    report.totalSeconds = mPredReport.totalSeconds + since(tStart);
     return report;
 }
 

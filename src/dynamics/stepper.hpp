@@ -26,6 +26,9 @@
 ///    least-squares fit (PoissonSolver::solveSteps) of the differences of the edge steps of the
 ///    two connections' frames (both integrated by the same tree from the same root frame). With
 ///    δΓ = 0 nothing moves; the reconstruction's own O(h²) error does not leak into the motion.
+///  - The step is two halves, predict (forces to reconstruction) and finish (colliders to the
+///    new state), so that bodies colliding with each other meet where both are going
+///    (sim/simulation; docs/gln.md, "Objects colliding").
 ///  - Colliders push points out (friction on the tangential step); the volume projection then
 ///    runs with pinned and contact points held, so it neither moves pins nor pushes points back
 ///    into a collider. With pins or contacts the body and flex velocities are re-derived from the
@@ -132,7 +135,9 @@ struct AffineContact {
 void affineContactCorrection(const std::vector<AffineContact>& contacts, const Mat3& a, const Mat3& secondMoment,
                              Vec3& dc, Mat3& dA);
 
-/// A static collider as a signed distance (negative inside) with its gradient.
+/// A collider as a signed distance (negative inside) with its gradient: static (a plane, a
+/// sphere, a mesh or level set), or another body's surface (`object`), which moves with
+/// `velocity` and takes its part of the push itself.
 struct Collider {
     enum class Kind { Plane, Sphere, Distance };
     Kind kind = Kind::Plane;
@@ -144,6 +149,16 @@ struct Collider {
     Real friction = 0.5;              ///< 0 slip .. 1 stick (fraction of the tangential step removed)
     Real restitution = 0;             ///< 0..1: contact points go out beyond the surface by this × their
                                       ///< depth (normal reflection), and on the normal part of the body velocity
+    /// Another body's surface (docs/gln.md, "Objects colliding"): the body's points take `share`
+    /// of each push the prediction asked for (the other body's points take the rest), friction
+    /// acts on the step relative to `velocity` (the other body's centre velocity), and the
+    /// penetration left is measured by the caller once both bodies have moved
+    /// (StepReport::maxPenetration leaves it out). The caller also puts the pair's momentum right.
+    bool object = false;
+    Real share = 1;                   ///< fraction of each push this body's points take (1: a static collider)
+    Vec3 velocity = Vec3::Zero();     ///< the collider's velocity, world units/s
+    bool pairContact = false;         ///< the two bodies touch this step (decided by the caller for both)
+    int body = -1;                    ///< the other body's index in the caller's list (-1: none)
 
     /// Signed distance and its gradient at x.
     Real evaluate(const Vec3& x, Vec3& gradient) const;
@@ -157,6 +172,7 @@ struct StepReport {
     Real totalVolumeDrift = 0;        ///< Σ V / Σ V0 − 1 after the step
     Index invertedCells = 0;          ///< cells with V <= 0
     Index contacts = 0;               ///< points in contact with a collider this step
+    bool staticContact = false;       ///< some of them with a collider that is not another body
     // Contact detection against the truth (signed distance before the response; docs/gln.md):
     Index contactTruth = 0;           ///< points with φ < 0 for some collider before the response
     Index contactTruePositive = 0;    ///< of which in the contact set R
@@ -189,8 +205,21 @@ public:
     void setRigidVelocity(const Vec3& velocity, const Vec3& angularVelocity);
 
     /// Advances by dt seconds in the field at scene frame `frame` (the field's time at the start
-    /// of the step).
+    /// of the step): predict, then finish.
     StepReport step(const ForceField& field, Real frame, Real dt, const std::vector<Collider>& colliders);
+    /// The step's first half: forces, body, flex, twist and the reconstruction, up to the
+    /// predicted positions (no constraint applied yet). Bodies that collide with each other are
+    /// all predicted first, so each meets the others where they are going (sim/simulation).
+    /// A report with a fault ends the step (finish must not be called).
+    StepReport predict(const ForceField& field, Real frame, Real dt);
+    /// The step's second half, after predict: colliders, the volume projection, the velocities
+    /// and the new state.
+    StepReport finish(const std::vector<Collider>& colliders);
+    const std::vector<Vec3>& predictedPositions() const { return mXPred; }  ///< after predict
+    /// Adds dv to the centre velocity and to every point's velocity over the last step (the
+    /// momentum correction of bodies in contact with each other; sim/simulation).
+    void shiftVelocity(const Vec3& dv);
+    const Vec3& predictedCentreVelocity() const { return mVcPred; }         ///< after predict
 
     /// Contact detection other than "φ < 0" (sim wires the GLN network of collide/gln_network
     /// here; dynamics cannot include collide): called per collider with the positions before the
@@ -213,6 +242,8 @@ public:
     const LatticeCells& cells() const { return mCells; }
     const std::vector<Real>& restVolumes() const { return mRestVolumes; }
     const std::vector<Real>& masses() const { return mMass; }
+    Real totalMass() const { return mTotalMass; }
+    bool anyPinned() const { return mAnyPinned; }
     /// The connection change δΓ (field[c][p](a, b)), for tests and diagnostics; settable to
     /// give a body an initial non-affine motion.
     std::array<std::vector<Mat3>, 3>& deltaGamma() { return mDGamma; }
@@ -264,6 +295,13 @@ private:
     std::vector<Index> mSolverFixed;  ///< the reconstruction's reference points (pins, or a centre point per component)
     std::unique_ptr<PoissonSolver> mSolver;
     std::vector<Vec3> mDisplacement;  ///< last step's twist displacement (warm start)
+    // Between predict and finish:
+    bool mPredicted = false;
+    std::vector<Vec3> mXPred;         ///< the predicted positions
+    Vec3 mCPred = Vec3::Zero(), mVcPred = Vec3::Zero();  ///< centre and its velocity after the kick
+    Mat3 mAPred = Mat3::Identity();   ///< A after the step, in SL(3)
+    Real mDtPred = 0;
+    StepReport mPredReport;
     VolumeProjectionCache mVolumeCache;  ///< the volume projection's multigrid, kept between steps
 };
 

@@ -113,16 +113,17 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
 
 Simulation::~Simulation() = default;
 
-std::vector<std::vector<Collider>> Simulation::substepColliders() const {
+void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
     const std::size_t n = mBodies.size();
-    std::vector<std::vector<Collider>> out(n, mColliders);
-    if (!mObjectContact || !mSurfaceDistance) return out;
+    auto positions = [&](std::size_t i) -> const std::vector<Vec3>& {
+        return predicted ? mBodies[i]->predictedPositions() : mBodies[i]->positions();
+    };
     // Each body's lattice points are kept (h_i + h_j)/2 outside body j's lattice surface: the
     // rendered surfaces reach about half a voxel beyond the lattice points, so the two meet.
     std::vector<Box3> boxes(n);
     for (std::size_t i = 0; i < n; ++i)
         if (mBodies[i])
-            for (const Vec3& x : mBodies[i]->positions()) boxes[i].extend(x);
+            for (const Vec3& x : positions(i)) boxes[i].extend(x);
     std::vector<std::shared_ptr<const SdfGrid>> surfaces(n);
     for (std::size_t i = 0; i < n; ++i) {
         if (!mBodies[i]) continue;
@@ -140,20 +141,118 @@ std::vector<std::vector<Collider>> Simulation::substepColliders() const {
                 const Real voxel = 0.5 * hj;
                 const int band = std::max(3, static_cast<int>(std::ceil(2 * pad / voxel)) + 2);
                 surfaces[j] = std::make_shared<const SdfGrid>(
-                    mSurfaceDistance(latticeSurface(mBodies[j]->lattice(), mBodies[j]->positions()), voxel, band));
+                    mSurfaceDistance(latticeSurface(mBodies[j]->lattice(), positions(j)), voxel, band));
             }
-            Collider c;
-            c.kind = Collider::Kind::Distance;
-            c.friction = mScene.collision.friction;
-            c.restitution = mScene.collision.restitution;
-            c.distance = [grid = surfaces[j], margin](const Vec3& x, Vec3* g) {
-                if (g) *g = grid->gradient(x);
-                return grid->distance(x) - margin;
-            };
-            out[i].push_back(std::move(c));
+            f(i, j, margin, surfaces[j]);
         }
     }
+}
+
+std::vector<std::vector<Collider>> Simulation::substepColliders() const {
+    std::vector<std::vector<Collider>> out(mBodies.size(), mColliders);
+    if (!mObjectContact || !mSurfaceDistance) return out;
+    // Whether each pair touches, decided once for both bodies: a point of either inside the
+    // other (their lattice surfaces are faceted differently, so often only one side's points
+    // are). The points of both push out of the other body, weighted as position-based dynamics
+    // weights two points (by inverse mass: equal halves for the same density and voxel); when
+    // only one side's points are inside, they take all of the push; with pins on either side,
+    // both do, as at a static wall. Momentum is then put right for the pair as a whole
+    // (keepPairMomentum).
+    const std::size_t n = mBodies.size();
+    struct Touch {
+        bool near = false, inside = false;
+        std::size_t slot = 0;
+    };
+    auto pointMass = [&](std::size_t i) {
+        return mBodies[i]->totalMass() / static_cast<Real>(mBodies[i]->lattice().size());
+    };
+    std::vector<Touch> touch(n * n);
+    forClosePairs(true, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const SdfGrid>& distance) {
+        Touch& t = touch[i * n + j];
+        t.near = true;
+        t.slot = out[i].size();
+        for (const Vec3& x : mBodies[i]->predictedPositions())
+            if (distance->distance(x) < margin) {
+                t.inside = true;
+                break;
+            }
+        Collider c;
+        c.kind = Collider::Kind::Distance;
+        c.friction = mScene.collision.friction;
+        c.restitution = mScene.collision.restitution;
+        c.object = true;
+        c.body = static_cast<int>(j);
+        c.velocity = mBodies[j]->predictedCentreVelocity();
+        if (!mBodies[i]->anyPinned() && !mBodies[j]->anyPinned())
+            c.share = pointMass(j) / (pointMass(i) + pointMass(j));
+        c.distance = [grid = distance, margin](const Vec3& x, Vec3* g) {
+            if (g) *g = grid->gradient(x);
+            return grid->distance(x) - margin;
+        };
+        out[i].push_back(std::move(c));
+    });
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = i + 1; j < n; ++j) {
+            const Touch& a = touch[i * n + j];
+            const Touch& b = touch[j * n + i];
+            if (!a.near || !b.near || !(a.inside || b.inside)) continue;
+            Collider& ci = out[i][a.slot];
+            Collider& cj = out[j][b.slot];
+            if (!b.inside) ci.share = 1;  // only i's points are inside: they take all of the push
+            if (!a.inside) cj.share = 1;
+            ci.pairContact = cj.pairContact = true;
+        }
     return out;
+}
+
+void Simulation::keepPairMomentum(const std::vector<std::vector<Collider>>& colliders,
+                                  const std::vector<unsigned char>& staticContact) {
+    // Bodies touching each other (pairContact) form groups; a group in which no body is pinned
+    // or touches a static collider exchanges momentum only within itself, so its momentum after
+    // the step must be what the forces alone made it (the sum of the predicted centre
+    // velocities times the masses). The pushes between the bodies, applied by each body to its
+    // own points, do not balance exactly (the two lattice surfaces are faceted differently, and
+    // a squashed body's spring-back pushes through position): the difference is removed as one
+    // velocity shift of the whole group, which keeps every relative velocity.
+    const std::size_t n = mBodies.size();
+    std::vector<std::size_t> parent(n);
+    for (std::size_t i = 0; i < n; ++i) parent[i] = i;
+    auto root = [&](std::size_t i) {
+        while (parent[i] != i) i = parent[i] = parent[parent[i]];
+        return i;
+    };
+    std::vector<unsigned char> touches(n, 0);
+    for (std::size_t i = 0; i < n; ++i)
+        for (const Collider& c : colliders[i])
+            if (c.object && c.pairContact && c.body >= 0) {
+                touches[i] = 1;
+                parent[root(i)] = root(static_cast<std::size_t>(c.body));
+            }
+    std::vector<unsigned char> excluded(n, 0);
+    std::vector<Vec3> gained(n, Vec3::Zero());
+    std::vector<Real> mass(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!touches[i]) continue;
+        const DeformableBody& b = *mBodies[i];
+        const std::size_t r = root(i);
+        if (staticContact[i] || b.anyPinned()) excluded[r] = 1;
+        gained[r] += b.totalMass() * (b.centreVelocity() - b.predictedCentreVelocity());
+        mass[r] += b.totalMass();
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t r = root(i);
+        if (touches[i] && !excluded[r]) mBodies[i]->shiftVelocity(-gained[r] / mass[r]);
+    }
+}
+
+Real Simulation::objectPenetration() const {
+    Real deepest = 0;
+    if (!mObjectContact || !mSurfaceDistance) return deepest;
+    forClosePairs(false, [&](std::size_t i, std::size_t, Real margin, const std::shared_ptr<const SdfGrid>& distance) {
+        const Real h = mBodies[i]->lattice().spacing;
+        for (const Vec3& x : mBodies[i]->positions()) deepest = std::max(deepest, (margin - distance->distance(x)) / h);
+    });
+    return deepest;
 }
 
 const DeformableBody* Simulation::body(std::size_t object) const {
@@ -197,16 +296,26 @@ FrameStats Simulation::advanceTo(int frame) {
         const Real fieldFrame = (frame - 1) + Real(k) / sub;
         const auto t0 = std::chrono::steady_clock::now();
         bool first = true;
-        const std::vector<std::vector<Collider>> colliders = substepColliders();
+        auto where = [&](std::size_t i) {
+            return "frame " + std::to_string(frame) + ", substep " + std::to_string(k + 1) + ", object '" +
+                   mScene.objects[i].name + "'";
+        };
+        // Every body's prediction first, so the bodies meet each other where they are going.
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
             if (!mBodies[i]) continue;
-            const StepReport r = mBodies[i]->step(mField, fieldFrame, dt, colliders[i]);
-            const std::string where = "frame " + std::to_string(frame) + ", substep " + std::to_string(k + 1) +
-                                      ", object '" + mScene.objects[i].name + "'";
-            if (!r.fault.empty()) throw RuntimeError("dynamics: " + where + ": " + r.fault);
+            const StepReport r = mBodies[i]->predict(mField, fieldFrame, dt);
+            if (!r.fault.empty()) throw RuntimeError("dynamics: " + where(i) + ": " + r.fault);
+        }
+        const std::vector<std::vector<Collider>> colliders = substepColliders();
+        std::vector<unsigned char> staticContact(mBodies.size(), 0);
+        for (std::size_t i = 0; i < mBodies.size(); ++i) {
+            if (!mBodies[i]) continue;
+            const StepReport r = mBodies[i]->finish(colliders[i]);
+            staticContact[i] = r.staticContact ? 1 : 0;
+            if (!r.fault.empty()) throw RuntimeError("dynamics: " + where(i) + ": " + r.fault);
             for (const Vec3& x : mBodies[i]->positions())
                 if (!allFiniteNoTrap(x))
-                    throw RuntimeError("dynamics: " + where + ": a position became non-finite; use more substeps or damping");
+                    throw RuntimeError("dynamics: " + where(i) + ": a position became non-finite; use more substeps or damping");
             s.maxCellVolumeError = std::max(s.maxCellVolumeError, r.maxCellVolumeError);
             s.invertedCells = std::max(s.invertedCells, r.invertedCells);
             s.limitedPoints += r.limitedPoints;
@@ -217,8 +326,12 @@ FrameStats Simulation::advanceTo(int frame) {
             if (first) s.lastStep = r;
             first = false;
         }
+        if (mObjectContact) keepPairMomentum(colliders, staticContact);
         seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
+    // Penetration between bodies, once both have moved: at the end of the frame (each body's
+    // step leaves it out: its share of the push leaves the rest to the other body).
+    s.maxPenetration = std::max(s.maxPenetration, objectPenetration());
     mFrame = frame;
     const FrameStats now = currentStats(frame);
     s.kineticEnergy = now.kineticEnergy;

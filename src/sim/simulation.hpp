@@ -36,6 +36,7 @@ struct FrameStats {
     double stepMs = 0;             ///< mean wall-clock time of one substep (all bodies), ms
     // Contacts against the truth (signed distance < 0 before the response; docs/gln.md):
     Real maxPenetration = 0;       ///< voxels: max over substeps, bodies, points of −φ/h after the step
+                                   ///< (between bodies: at the end of the frame)
     Index contactSetSize = 0;      ///< Σ over substeps and bodies of |R|
     Index contactTruth = 0;        ///< Σ of |{φ < 0}|
     Index contactTruePositive = 0; ///< Σ of |R ∩ {φ < 0}|
@@ -91,8 +92,21 @@ public:
 
 private:
     /// The colliders each body meets this substep: the scene's, then the surfaces of the other
-    /// bodies near it, built from the positions before any body steps.
+    /// bodies near it, built from their predicted positions (after every body's predict).
     std::vector<std::vector<Collider>> substepColliders() const;
+    /// Calls f(i, j, margin, distance) for each ordered pair of bodies close enough to touch at
+    /// the predicted (or current) positions, with the signed distance of j's lattice surface
+    /// there (built once per j) and the margin i's points keep from it.
+    using PairFn = std::function<void(std::size_t i, std::size_t j, Real margin,
+                                      const std::shared_ptr<const SdfGrid>& distance)>;
+    void forClosePairs(bool predicted, const PairFn& f) const;
+    /// Max over bodies and points of how deep (voxels of the point's body) a point is inside
+    /// another body's surface less the margin, at the current positions.
+    Real objectPenetration() const;
+    /// After every body's finish: a group of bodies touching only each other keeps its momentum
+    /// (one velocity shift for the whole group; simulation.cpp).
+    void keepPairMomentum(const std::vector<std::vector<Collider>>& colliders,
+                          const std::vector<unsigned char>& staticContact);
     SurfaceDistance mSurfaceDistance;
     bool mObjectContact = false;  ///< collision.objects and at least two bodies
     const SceneDesc& mScene;
