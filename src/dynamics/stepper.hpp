@@ -216,10 +216,10 @@ public:
     /// and the new state.
     StepReport finish(const std::vector<Collider>& colliders);
     const std::vector<Vec3>& predictedPositions() const { return mXPred; }  ///< after predict
+    const Vec3& predictedCentreVelocity() const { return mVcPred; }         ///< after predict
     /// Adds dv to the centre velocity and to every point's velocity over the last step (the
     /// momentum correction of bodies in contact with each other; sim/simulation).
     void shiftVelocity(const Vec3& dv);
-    const Vec3& predictedCentreVelocity() const { return mVcPred; }         ///< after predict
 
     /// Contact detection other than "φ < 0" (sim wires the GLN network of collide/gln_network
     /// here; dynamics cannot include collide): called per collider with the positions before the

@@ -1,8 +1,8 @@
 #pragma once
 /// @file body_contact.hpp
 /// @brief Contact between deformable objects (scene key collision.objects): each object's
-/// deformed lattice surface, turned into a signed distance at the start of every substep, is a
-/// collider for the others (docs/gln.md, "Objects colliding").
+/// deformed lattice surface at its predicted positions, turned into a signed distance every
+/// substep, is a collider for the others (docs/gln.md, "Objects colliding").
 
 #include "base/types.hpp"
 #include "geom/lattice.hpp"
