@@ -2,7 +2,7 @@
 // voxels (137,065 lattice points; radius 8 with --quick) twisted about Y, with a rigid-spin
 // velocity and a contact band, on a world grid of voxel size h/4 (the ball spans 256 voxels).
 // Prints the write time (min and median of the repeats; resampling and file writing apart, and
-// the stages of the fastest repeat),
+// the stages of the fastest repeat), the (voxel, cell) pairs solved,
 // the file size per frame, the active voxels and the peak RSS. The frames go to a temporary
 // folder that is removed afterwards.
 #include "app/bench.hpp"
@@ -79,6 +79,8 @@ void vdb(std::ostream& out, const BenchOptions& options) {
     out << "vdb.stage_cells: " << st.cells << " s\n";
     out << "vdb.stage_bins: " << st.bins << " s\n";
     out << "vdb.stage_voxels: " << st.voxels << " s\n";
+    out << "vdb.voxel_cell_solves: " << last.candidates << " (voxel, cell) pairs\n";
+    out << "vdb.slow_solves: " << last.slowSolves << " (voxel, cell) pairs left to the scalar Newton\n";
     out << "vdb.stage_trees: " << st.trees << " s\n";
     out << "vdb.stage_lattice: " << st.lattice << " s\n";
     out << "vdb.stage_file: " << st.file << " s\n";

@@ -27,6 +27,10 @@
 
 #include <tbb/parallel_sort.h>
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -34,6 +38,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <numeric>
 #include <memory>
@@ -117,6 +122,7 @@ struct CellMap {
     Real acceptStep = 0;     // Newton stops after a step this small (s units), see solveCell
     Real kNewton = 0;        // 4 |J(1/2)^-1| |nonlinear part|: bounds second-order errors in s
     Vec3 reach;              // per axis: bound on g_a hv (coverage > 0 needs -reach < s_a < 1 + reach)
+                             // while |s - 1/2| <= 1
 };
 
 /// A solved voxel: s = x^-1(p) and J^-1 at (the last Newton iterate before) s.
@@ -173,6 +179,186 @@ inline bool solveCell(const CellMap& m, const Vec3& p, Real detMin, InverseSolve
     return false;
 }
 
+/// The voxel's coverage by the cell: the separable box filter with first-order face distances
+/// (|grad s_a|^2 = g2_a, the squared rows of J^-1). In s units, with t = |grad s_a| hv (half a
+/// voxel), the overlap along axis a is min(t, s_a) + min(t, 1 - s_a) out of 2t; a voxel at least
+/// t inside both faces is whole. (The batched kernel computes the same, lane-wise.)
+inline Real coverage(const Vec3& s, const Vec3& g2, Real hv) {
+    Real c = 1;
+    for (int a = 0; a < 3; ++a) {
+        const Real t2 = g2[a] * (hv * hv), oneMinus = 1 - s[a], u = std::min(s[a], oneMinus);
+        if (u >= 0 && u * u >= t2) continue;
+        const Real tg = std::sqrt(t2);
+        const Real ov = std::min(tg, s[a]) + std::min(tg, oneMinus);
+        c = ov <= 0 ? 0 : c * std::min(Real(1), ov / (tg + tg));
+    }
+    return c;
+}
+
+// ---- batched Newton (SoA, 4 lanes) ----------------------------------------------------------
+// The candidates of one (cell, leaf block) pair are solved together: each starts from the cell's
+// affine guess s = 1/2 + J(1/2)^-1 (p - x(1/2)) and takes kBatchSteps Newton steps with no
+// branches, 2 voxels at a time in SSE2 registers (any x86-64) or 4 in AVX2 registers where the
+// CPU has them (GCC vector extensions; the same IEEE operations either way, no FMA, so the same
+// bits; tested). A lane whose last step was not below the cell's acceptStep goes on in solveCell; one
+// that met a Jacobian with det <= detMin is unresolved, as in solveCell.
+constexpr int kLanes = 4;
+constexpr int kBatchSteps = 2;
+constexpr int kBatchMax = kLeafVoxels + kLanes;
+
+struct CandidateBatch {
+    alignas(32) double p[3][kBatchMax];
+    alignas(32) double s[3][kBatchMax];
+    alignas(32) double g2[3][kBatchMax];
+    alignas(32) std::int64_t state[kBatchMax];  // 1 converged, 0 not yet, -1 degenerate Jacobian
+    // for converged lanes: coverage c and the c-weighted values
+    alignas(32) double cov[kBatchMax];
+    alignas(32) double vel[3][kBatchMax];
+    alignas(32) double rest[3][kBatchMax];
+    alignas(32) double con[kBatchMax];
+    int at[kBatchMax];                          // offset in the leaf block
+    int n = 0;
+};
+
+using V2 = double __attribute__((vector_size(16)));        // SSE2: any x86-64
+using M2 = std::int64_t __attribute__((vector_size(16)));
+using V4 = double __attribute__((vector_size(32)));        // AVX2
+using M4 = std::int64_t __attribute__((vector_size(32)));
+
+#define DGV_UNROLL2 _Pragma("GCC unroll 2")
+#define DGV_UNROLL3 _Pragma("GCC unroll 3")
+#define DGV_NEWTON_BATCH_BODY(V, M)                                                                            \
+    const std::array<Vec3, 8>& a = m.x;                                                                        \
+    const V zero = V{}, one = zero + 1., lowS = one * -1., highS = one * 2.;                                   \
+    for (int i0 = 0; i0 < b.n; i0 += int(sizeof(V) / sizeof(double))) {                                        \
+        V p[3], s[3];                                                                                          \
+        DGV_UNROLL3 for (int q = 0; q < 3; ++q) std::memcpy(&p[q], &b.p[q][i0], sizeof(V));                    \
+        DGV_UNROLL3 for (int r = 0; r < 3; ++r) {                                                              \
+            s[r] = one * 0.5;                                                                                  \
+            DGV_UNROLL3 for (int q = 0; q < 3; ++q) s[r] += m.centreInverse(r, q) * (p[q] - m.centre[q]);      \
+        }                                                                                                      \
+        M bad = M{};                                                                                           \
+        V dmax = one, id = one, r0[3], r1[3], r2[3];                                                           \
+        DGV_UNROLL2 for (int it = 0; it < kBatchSteps; ++it) {                                                 \
+            const V s01 = s[0] * s[1], s02 = s[0] * s[2], s12 = s[1] * s[2], s012 = s01 * s[2];                \
+            V res[3], c0[3], c1[3], c2[3];                                                                     \
+            DGV_UNROLL3 for (int q = 0; q < 3; ++q) {                                                          \
+                res[q] = a[0][q] + a[1][q] * s[0] + a[2][q] * s[1] + a[3][q] * s[2] + a[4][q] * s01 +          \
+                         a[5][q] * s02 + a[6][q] * s12 + a[7][q] * s012 - p[q];                                \
+                c0[q] = a[1][q] + a[4][q] * s[1] + a[5][q] * s[2] + a[7][q] * s12;                             \
+                c1[q] = a[2][q] + a[4][q] * s[0] + a[6][q] * s[2] + a[7][q] * s02;                             \
+                c2[q] = a[3][q] + a[5][q] * s[0] + a[6][q] * s[1] + a[7][q] * s01;                             \
+            }                                                                                                  \
+            r0[0] = c1[1] * c2[2] - c1[2] * c2[1], r0[1] = c1[2] * c2[0] - c1[0] * c2[2];                      \
+            r0[2] = c1[0] * c2[1] - c1[1] * c2[0];                                                             \
+            const V det = c0[0] * r0[0] + c0[1] * r0[1] + c0[2] * r0[2];                                       \
+            bad |= ~(det > detMin);                                                                            \
+            r1[0] = c2[1] * c0[2] - c2[2] * c0[1], r1[1] = c2[2] * c0[0] - c2[0] * c0[2];                      \
+            r1[2] = c2[0] * c0[1] - c2[1] * c0[0];                                                             \
+            r2[0] = c0[1] * c1[2] - c0[2] * c1[1], r2[1] = c0[2] * c1[0] - c0[0] * c1[2];                      \
+            r2[2] = c0[0] * c1[1] - c0[1] * c1[0];                                                             \
+            id = one / (bad ? one : det);                                                                      \
+            const V d0 = (r0[0] * res[0] + r0[1] * res[1] + r0[2] * res[2]) * id;                              \
+            const V d1 = (r1[0] * res[0] + r1[1] * res[1] + r1[2] * res[2]) * id;                              \
+            const V d2 = (r2[0] * res[0] + r2[1] * res[1] + r2[2] * res[2]) * id;                              \
+            const V n0 = s[0] - d0, n1 = s[1] - d1, n2 = s[2] - d2;                                            \
+            s[0] = n0 < lowS ? lowS : (n0 > highS ? highS : n0);                                               \
+            s[1] = n1 < lowS ? lowS : (n1 > highS ? highS : n1);                                               \
+            s[2] = n2 < lowS ? lowS : (n2 > highS ? highS : n2);                                               \
+            const V a0 = d0 < 0 ? -d0 : d0, a1 = d1 < 0 ? -d1 : d1, a2 = d2 < 0 ? -d2 : d2;                    \
+            const V m01 = a0 > a1 ? a0 : a1;                                                                   \
+            dmax = m01 > a2 ? m01 : a2;                                                                        \
+        }                                                                                                      \
+        const V id2 = id * id;                                                                                 \
+        const V g0 = (r0[0] * r0[0] + r0[1] * r0[1] + r0[2] * r0[2]) * id2;                                    \
+        const V g1 = (r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2]) * id2;                                    \
+        const V g2 = (r2[0] * r2[0] + r2[1] * r2[1] + r2[2] * r2[2]) * id2;                                    \
+        const M done = dmax < m.acceptStep;                                                                    \
+        const M state = bad ? M{} - 1 : (done ? M{} + 1 : M{});                                                \
+        DGV_UNROLL3 for (int q = 0; q < 3; ++q) std::memcpy(&b.s[q][i0], &s[q], sizeof(V));                    \
+        std::memcpy(&b.g2[0][i0], &g0, sizeof(V));                                                             \
+        std::memcpy(&b.g2[1][i0], &g1, sizeof(V));                                                             \
+        std::memcpy(&b.g2[2][i0], &g2, sizeof(V));                                                             \
+        std::memcpy(&b.state[i0], &state, sizeof(M));                                                          \
+        /* the coverage (as coverage(), lane-wise) and the weighted values */                                  \
+        const V gg[3] = {g0, g1, g2};                                                                          \
+        V c = one;                                                                                             \
+        DGV_UNROLL3 for (int q = 0; q < 3; ++q) {                                                              \
+            const V t2 = gg[q] * (hv * hv), oneMinus = one - s[q];                                             \
+            const V u = s[q] < oneMinus ? s[q] : oneMinus;                                                     \
+            const M whole = (u >= 0) & (u * u >= t2);                                                          \
+            V tg = t2;                                                                                         \
+            VSQRT(tg);                                                                                         \
+            const V ov = (tg < s[q] ? tg : s[q]) + (tg < oneMinus ? tg : oneMinus);                            \
+            const V f = ov / (tg + tg);                                                                        \
+            c = whole ? c : (ov <= 0 ? zero : c * (f < one ? f : one));                                        \
+        }                                                                                                      \
+        std::memcpy(&b.cov[i0], &c, sizeof(V));                                                                \
+        const V s01 = s[0] * s[1], s02 = s[0] * s[2], s12 = s[1] * s[2], s012 = s01 * s[2];                    \
+        DGV_UNROLL3 for (int q = 0; q < 3; ++q) {                                                              \
+            const V v = m.v[0][q] + m.v[1][q] * s[0] + m.v[2][q] * s[1] + m.v[3][q] * s[2] + m.v[4][q] * s01 + \
+                         m.v[5][q] * s02 + m.v[6][q] * s12 + m.v[7][q] * s012;                                 \
+            const V cv = c * v, cr = c * (m.restLowest[q] + m.h * s[q]);                                       \
+            std::memcpy(&b.vel[q][i0], &cv, sizeof(V));                                                        \
+            std::memcpy(&b.rest[q][i0], &cr, sizeof(V));                                                       \
+        }                                                                                                      \
+        V sc[3];                                                                                               \
+        DGV_UNROLL3 for (int q = 0; q < 3; ++q) sc[q] = s[q] < 0 ? zero : (s[q] > one ? one : s[q]);           \
+        const V k = m.k[0] + m.k[1] * sc[0] + m.k[2] * sc[1] + m.k[3] * sc[2] + m.k[4] * (sc[0] * sc[1]) +     \
+                     m.k[5] * (sc[0] * sc[2]) + m.k[6] * (sc[1] * sc[2]) + m.k[7] * (sc[0] * sc[1] * sc[2]);   \
+        const V ck = c * k;                                                                                    \
+        std::memcpy(&b.con[i0], &ck, sizeof(V));                                                               \
+    }
+
+inline void sqrtGeneric(V2& x) {
+#if defined(__SSE2__)
+    __m128d v;
+    std::memcpy(&v, &x, sizeof v);
+    v = _mm_sqrt_pd(v);
+    std::memcpy(&x, &v, sizeof v);
+#else
+    for (int i = 0; i < 2; ++i) x[i] = std::sqrt(x[i]);
+#endif
+}
+
+__attribute__((noinline)) void newtonBatchGeneric(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
+#define VSQRT sqrtGeneric
+    DGV_NEWTON_BATCH_BODY(V2, M2)
+#undef VSQRT
+}
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2"))) inline void sqrtAvx2(V4& x) {
+    __m256d v;
+    std::memcpy(&v, &x, sizeof v);
+    v = _mm256_sqrt_pd(v);
+    std::memcpy(&x, &v, sizeof v);
+}
+__attribute__((noinline, target("avx2"))) void newtonBatchAvx2(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
+#define VSQRT sqrtAvx2
+    DGV_NEWTON_BATCH_BODY(V4, M4)
+#undef VSQRT
+}
+bool haveAvx2() {
+    static const bool has = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx2") != 0;
+    }();
+    return has;
+}
+#endif
+#undef DGV_NEWTON_BATCH_BODY
+#undef DGV_UNROLL2
+#undef DGV_UNROLL3
+
+void newtonBatch(const CellMap& m, double detMin, double hv, bool allowAvx2, CandidateBatch& b) {
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+    if (allowAvx2 && haveAvx2()) return newtonBatchAvx2(m, detMin, hv, b);
+#else
+    (void)allowAvx2;
+#endif
+    newtonBatchGeneric(m, detMin, hv, b);
+}
+
 struct ObjectRefs {
     const VdbObjectFrame* frame;
     Index firstCell;  // global cell id of its cell 0
@@ -225,10 +411,12 @@ struct WorldGrids {
     Index activeVoxels = 0;
     Real densitySum = 0;
     Index unresolved = 0;
+    Index slowSolves = 0;  // voxels the batched Newton left to solveCell
+    Index candidates = 0;  // (voxel, cell) pairs solved
 };
 
 WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const Vec3& origin,
-                    const openvdb::math::Transform::Ptr& xform, VdbStageSeconds& stages) {
+                    const openvdb::math::Transform::Ptr& xform, bool allowAvx2, VdbStageSeconds& stages) {
     auto t = Clock::now();
     // ---- per-cell maps --------------------------------------------------------------------
     std::vector<ObjectRefs> refs;
@@ -271,26 +459,56 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                 m.hi = Eigen::Vector3i::Constant(-1);
                 return;
             }
-            // Deviation of x from its linearisation at the centre over the visited region,
-            // |s - 1/2| <= 1/2 + mu, is at most (|a4|+|a5|+|a6|)(1/2+mu)^2 + |a7| 3 (1/2+mu)^2 ...;
-            // the prefilter only needs a bound, Newton decides.
+            // Which voxels can this cell cover? Coverage > 0 needs -t_a < s_a < 1 + t_a on every
+            // axis, t_a = |grad s_a| hv (|grad s_a| = |row a of J(s)^-1|). Candidates are chosen
+            // by the affine guess s' = 1/2 + J(1/2)^-1 (p - x(1/2)), so the margin around [0,1]
+            // must cover t_a and the guess's error. With D = max_a |s_a - 1/2| and the nonlinear
+            // monomials a4..a7 (x(s) = x(1/2) + J(1/2)(s - 1/2) + N(s)):
+            //   |N(s)| <= (|a4|+|a5|+|a6|) D^2 + |a7| (D^3 + 1.5 D^2),   s - s' = -J(1/2)^-1 N(s),
+            //   so |s_a - s'_a| <= |row a of J(1/2)^-1| |N|;
+            //   |J(s) - J(1/2)|_F <= sqrt(3) D nonlinear, so E = J(1/2)^-1 (J(s) - J(1/2)) has
+            //   |E| <= rho = kNewton sqrt(3) D / 4 <= kNewton / 2 (D <= 1), and
+            //   |row a of J(s)^-1| <= |row a of J(1/2)^-1| + rho / (1 - rho) |J(1/2)^-1|_F.
+            // These hold for D <= 1, i.e. while t_a <= 1/2: used for kNewton <= 1/2 and a reach
+            // below 0.3; more distorted cells keep the old, generous margin (Newton decides).
             const Real nonlinear = m.x[4].norm() + m.x[5].norm() + m.x[6].norm() + 2 * m.x[7].norm();
-            for (int a = 0; a < 3; ++a) {
-                const Real g = m.centreInverse.row(a).norm();
-                m.margin[a] = g * (0.5 * vs) * 1.5 + g * nonlinear * 2.25 + 1e-9;
-            }
             m.kNewton = 4 * m.centreInverse.norm() * nonlinear;  // see solveCell
-            // g_a = |row a of J^-1| changes over the cell (|s - 1/2| < 1 + margin) by a factor
-            // below 1 + kNewton (first order in the nonlinear part; generous) while kNewton <= 1;
-            // more distorted cells are not pre-screened
-            for (int a = 0; a < 3; ++a)
-                m.reach[a] = m.kNewton <= 1 ? m.centreInverse.row(a).norm() * (0.5 * vs) * (1 + m.kNewton) : Real(1e30);
-            m.acceptStep = m.kNewton > 1e-4 ? 1e-6 / std::sqrt(m.kNewton) : Real(1e-4);
-            // world box: the hull of the corners contains the cell; pad by the margin region
-            const Real pad = vs + 2.25 * nonlinear;
+            const Real hv = 0.5 * vs;
+            const Real rho = m.kNewton / 2;
+            Real maxReach = 0;
             for (int a = 0; a < 3; ++a) {
-                m.lo[a] = static_cast<int>(std::ceil((bmin[a] - pad - origin[a]) / vs));
-                m.hi[a] = static_cast<int>(std::floor((bmax[a] + pad - origin[a]) / vs));
+                m.reach[a] = hv * (m.centreInverse.row(a).norm() + (rho < 1 ? rho / (1 - rho) : Real(1e30)) * m.centreInverse.norm());
+                maxReach = std::max(maxReach, m.reach[a]);
+            }
+            // world box: the hull of the corners contains the image of the unit cube (trilinear
+            // weights are convex); a point with coverage > 0 lies within s_b in [-mu_b, 1 + mu_b]
+            // (mu the margin), so x_a is at most sum_b |J_ab(xi)| mu_b beyond the hull, with
+            // |J_ab(xi) - J_ab(1/2)| <= sqrt(3) D nonlinear.
+            Vec3 pad = Vec3::Constant(vs + 2.25 * nonlinear);
+            bool tight = m.kNewton <= 0.5 && maxReach <= 0.3;
+            if (tight) {
+                const Real D = 0.5 + maxReach;
+                const Real nBound = (m.x[4].norm() + m.x[5].norm() + m.x[6].norm()) * D * D + m.x[7].norm() * (D * D * D + 1.5 * D * D);
+                for (int a = 0; a < 3; ++a) m.margin[a] = m.reach[a] + 1.01 * m.centreInverse.row(a).norm() * nBound + 1e-9;
+                tight = m.margin.maxCoeff() <= 0.5;  // the bounds above assume |s - 1/2| <= 1
+            }
+            if (tight) {
+                const Mat3 Jc = jacobian(m.x, half);
+                const Real dJ = std::sqrt(Real(3)) * (0.5 + m.margin.maxCoeff()) * nonlinear;
+                for (int a = 0; a < 3; ++a) {
+                    pad[a] = 1e-9 * scale;
+                    for (int b2 = 0; b2 < 3; ++b2) pad[a] += (std::abs(Jc(a, b2)) + dJ) * m.margin[b2];
+                }
+            } else {
+                for (int a = 0; a < 3; ++a) {
+                    const Real g = m.centreInverse.row(a).norm();
+                    m.margin[a] = g * hv * 1.5 + g * nonlinear * 2.25 + 1e-9;
+                }
+            }
+            m.acceptStep = m.kNewton > 1e-4 ? 1e-6 / std::sqrt(m.kNewton) : Real(1e-4);
+            for (int a = 0; a < 3; ++a) {
+                m.lo[a] = static_cast<int>(std::ceil((bmin[a] - pad[a] - origin[a]) / vs));
+                m.hi[a] = static_cast<int>(std::floor((bmax[a] + pad[a] - origin[a]) / vs));
             }
         }, 256);
     }
@@ -336,11 +554,12 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
     using FloatLeaf = openvdb::FloatTree::LeafNodeType;
     using VecLeaf = openvdb::Vec3STree::LeafNodeType;
     struct BlockOut {
-        std::unique_ptr<FloatLeaf> density, contact;
-        std::unique_ptr<VecLeaf> vel, rest;
+        std::unique_ptr<FloatLeaf> density, contact;  // null: an active tile of the value below
+        std::unique_ptr<VecLeaf> vel, rest;            // null: no active voxel in the block
+        float densityTile = 0, contactTile = 0;
         Index active = 0;
         Real densitySum = 0;
-        Index unresolved = 0;
+        Index unresolved = 0, slowSolves = 0, candidates = 0;
     };
     std::vector<BlockOut> out(static_cast<std::size_t>(blocks));
     const Real hv = 0.5 * vs;
@@ -356,7 +575,9 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         std::array<Real, kLeafVoxels> con{};
         for (auto& x : vel) x.setZero();
         for (auto& x : rest) x.setZero();
-        Index unresolved = 0;
+        Index unresolved = 0, slowSolves = 0, candidates = 0;
+        const std::unique_ptr<CandidateBatch> batchStore(new CandidateBatch);  // not zeroed
+        CandidateBatch& batch = *batchStore;
         for (std::size_t e = begin; e < end; ++e) {
             const CellMap& m = maps[static_cast<std::size_t>(pairs[e].second)];
             Eigen::Vector3i lo = m.lo.cwiseMax(base), hi = m.hi.cwiseMin(base + Eigen::Vector3i::Constant(kLeafDim - 1));
@@ -366,11 +587,8 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             for (int a = 0; a < 3; ++a)
                 if (std::abs(step[a]) > 1e-300) invStep[a] = 1 / step[a];
             const Real detMin = 1e-12 * m.h * m.h * m.h;
-            // Continuation: the first voxel of a row starts from the first solved voxel of the
-            // previous row (or the affine guess), the others from their left neighbour, each
-            // moved by J^-1 (p - p_anchor); Newton then needs about one step.
-            bool haveRowAnchor = false;
-            InverseSolve rowAnchor;
+            // candidates: per row, the voxels whose affine guess lies within the margin
+            batch.n = 0;
             for (int kz = lo[2]; kz <= hi[2]; ++kz)
                 for (int jy = lo[1]; jy <= hi[1]; ++jy) {
                     // affine guess along the row: s(i) = s_lo + (i - lo) step; keep the i with
@@ -392,70 +610,64 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                     }
                     if (tmin > tmax) continue;
                     const int i0 = lo[0] + static_cast<int>(std::ceil(tmin)), i1 = lo[0] + static_cast<int>(std::floor(tmax));
-                    bool havePrev = false;
-                    InverseSolve prev;
                     for (int ix = i0; ix <= i1; ++ix) {
-                        const Vec3 p = origin + vs * Vec3(ix, jy, kz);
-                        InverseSolve sol;
-                        if (havePrev || haveRowAnchor) {
-                            // predicted from a solved voxel: skip the voxel when the prediction
-                            // lies clearly outside the region where the coverage is > 0,
-                            // s_a in (-g_a hv, 1 + g_a hv) (the error of the prediction is below
-                            // kNewton |ds|^2; g changes by a factor below 1 + kNewton |ds|)
-                            const InverseSolve& an = havePrev ? prev : rowAnchor;
-                            const Vec3 ds = an.inv * (p - an.p);
-                            sol.s = an.s + ds;
-                            const Real err = m.kNewton * ds.squaredNorm() + 1e-3;
-                            bool outside = false;
-                            for (int a = 0; a < 3; ++a) {
-                                const Real r = m.reach[a] + err;
-                                outside = outside || sol.s[a] < -r || sol.s[a] > 1 + r;
-                            }
-                            if (outside) continue;
-                        } else {
-                            sol.s = s0 + Real(ix - lo[0]) * step;
-                        }
-                        if (!solveCell(m, p, detMin, sol)) {
-                            ++unresolved;
-                            havePrev = false;
-                            continue;
-                        }
-                        if (!havePrev) {
-                            rowAnchor = sol;
-                            haveRowAnchor = true;
-                        }
-                        prev = sol;
-                        havePrev = true;
-                        const Vec3& s = sol.s;
-                        // coverage: separable box filter with first-order face distances
-                        // (|grad s_a| = |row a of J^-1|)
-                        // (in s units: t = g hv, overlap min(t, s) + min(t, 1 - s), over 2 t)
-                        Real c = 1;
-                        for (int a = 0; a < 3 && c > 0; ++a) {
-                            const Real t2 = sol.g2[a] * hv * hv, u = std::min(s[a], 1 - s[a]);
-                            if (u >= 0 && u * u >= t2) continue;  // a whole voxel's width
-                            const Real tg = std::sqrt(t2);
-                            const Real ov = std::min(tg, s[a]) + std::min(tg, 1 - s[a]);
-                            c = ov <= 0 ? 0 : c * std::min(Real(1), ov / (2 * tg));
-                        }
-                        if (!(c > 1e-9)) continue;
-                        const std::size_t at = static_cast<std::size_t>((ix - base[0]) * kLeafDim * kLeafDim + (jy - base[1]) * kLeafDim + (kz - base[2]));
-                        const Vec3 sc = s.cwiseMax(Vec3::Zero()).cwiseMin(Vec3::Ones());  // keeps contact in 0..1
-                        cov[at] += c;
-                        vel[at] += c * evalVec(m.v, s);  // extrapolated by < 1/2 voxel outside
-                        rest[at] += c * (m.restLowest + m.h * s);
-                        con[at] += c * evalMonomials(m.k, sc);
+                        const int n = batch.n++;
+                        batch.p[0][n] = origin[0] + vs * ix;
+                        batch.p[1][n] = origin[1] + vs * jy;
+                        batch.p[2][n] = origin[2] + vs * kz;
+                        batch.at[n] = (ix - base[0]) * kLeafDim * kLeafDim + (jy - base[1]) * kLeafDim + (kz - base[2]);
                     }
                 }
+            if (batch.n == 0) continue;
+            const int real = batch.n;
+            while (batch.n % kLanes) {  // pad with copies of the last candidate
+                for (int q = 0; q < 3; ++q) batch.p[q][batch.n] = batch.p[q][real - 1];
+                ++batch.n;
+            }
+            candidates += real;
+            newtonBatch(m, detMin, hv, allowAvx2, batch);
+            for (int e2 = 0; e2 < real; ++e2) {
+                const std::size_t at = static_cast<std::size_t>(batch.at[e2]);
+                if (batch.state[e2] > 0) {  // converged in the batch: values are ready
+                    const Real c = batch.cov[e2];
+                    if (!(c > 1e-9)) continue;
+                    cov[at] += c;
+                    vel[at] += Vec3(batch.vel[0][e2], batch.vel[1][e2], batch.vel[2][e2]);
+                    rest[at] += Vec3(batch.rest[0][e2], batch.rest[1][e2], batch.rest[2][e2]);
+                    con[at] += batch.con[e2];
+                    continue;
+                }
+                if (batch.state[e2] < 0) {
+                    ++unresolved;
+                    continue;
+                }
+                // not converged in kBatchSteps: go on one voxel at a time
+                InverseSolve sol;
+                sol.s = Vec3(batch.s[0][e2], batch.s[1][e2], batch.s[2][e2]);
+                if (!solveCell(m, Vec3(batch.p[0][e2], batch.p[1][e2], batch.p[2][e2]), detMin, sol)) {
+                    ++unresolved;
+                    continue;
+                }
+                ++slowSolves;
+                const Vec3& s = sol.s;
+                const Real c = coverage(s, sol.g2, hv);
+                if (!(c > 1e-9)) continue;
+                const Vec3 sc = s.cwiseMax(Vec3::Zero()).cwiseMin(Vec3::Ones());  // keeps contact in 0..1
+                cov[at] += c;
+                vel[at] += c * evalVec(m.v, s);  // extrapolated by < 1/2 voxel outside
+                rest[at] += c * (m.restLowest + m.h * s);
+                con[at] += c * evalMonomials(m.k, sc);
+            }
         }
         BlockOut& o = out[static_cast<std::size_t>(b)];
         o.unresolved = unresolved;
+        o.slowSolves = slowSolves;
+        o.candidates = candidates;
         const openvdb::Coord origin3(base[0], base[1], base[2]);
+        std::array<float, kLeafVoxels> dv, cv;
         for (std::size_t at = 0; at < static_cast<std::size_t>(kLeafVoxels); ++at) {
             if (!(cov[at] > 0)) continue;
-            if (!o.density) {
-                o.density = std::make_unique<FloatLeaf>(origin3, 0.f, false);
-                o.contact = std::make_unique<FloatLeaf>(origin3, 0.f, false);
+            if (!o.vel) {
                 o.vel = std::make_unique<VecLeaf>(origin3, openvdb::Vec3s(0.f), false);
                 o.rest = std::make_unique<VecLeaf>(origin3, openvdb::Vec3s(0.f), false);
             }
@@ -463,13 +675,27 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             const Vec3 v = vel[at] * w, r = rest[at] * w;
             const Real d = std::min(Real(1), cov[at]);
             const openvdb::Index off = static_cast<openvdb::Index>(at);
-            o.density->setValueOn(off, static_cast<float>(d));
-            o.contact->setValueOn(off, static_cast<float>(std::min(Real(1), con[at] * w)));
+            dv[at] = static_cast<float>(d);
+            cv[at] = static_cast<float>(std::min(Real(1), con[at] * w));
             o.vel->setValueOn(off, openvdb::Vec3s(float(v.x()), float(v.y()), float(v.z())));
             o.rest->setValueOn(off, openvdb::Vec3s(float(r.x()), float(r.y()), float(r.z())));
             ++o.active;
             o.densitySum += d;
         }
+        if (!o.vel) return;
+        // density and contact: a whole block of one value is an active tile (the inside of an
+        // object: density 1, contact 0), as OpenVDB's prune would make it
+        const bool full = o.active == kLeafVoxels;
+        auto uniform = [&](const std::array<float, kLeafVoxels>& x) {
+            return full && std::all_of(x.begin(), x.end(), [&](float y) { return y == x[0]; });
+        };
+        auto leafOf = [&](const std::array<float, kLeafVoxels>& x) {
+            auto leaf = std::make_unique<FloatLeaf>(origin3, 0.f, false);
+            for (auto it = o.vel->cbeginValueOn(); it; ++it) leaf->setValueOn(it.pos(), x[it.pos()]);
+            return leaf;
+        };
+        if (uniform(dv)) o.densityTile = dv[0]; else o.density = leafOf(dv);
+        if (uniform(cv)) o.contactTile = cv[0]; else o.contact = leafOf(cv);
     }, 1);
 
     stages.voxels = since(t);
@@ -481,11 +707,14 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
     g.rest = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.f));
     for (BlockOut& o : out) {  // in block order
         g.unresolved += o.unresolved;
-        if (!o.density) continue;
+        g.slowSolves += o.slowSolves;
+        g.candidates += o.candidates;
+        if (!o.vel) continue;
         g.activeVoxels += o.active;
         g.densitySum += o.densitySum;
-        g.density->tree().addLeaf(o.density.release());
-        g.contact->tree().addLeaf(o.contact.release());
+        const openvdb::Coord at = o.vel->origin();
+        if (o.density) g.density->tree().addLeaf(o.density.release()); else g.density->tree().addTile(1, at, o.densityTile, true);
+        if (o.contact) g.contact->tree().addLeaf(o.contact.release()); else g.contact->tree().addTile(1, at, o.contactTile, true);
         g.vel->tree().addLeaf(o.vel.release());
         g.rest->tree().addLeaf(o.rest.release());
     }
@@ -588,10 +817,12 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
 
     VdbWriteReport report;
     openvdb::math::Transform::Ptr xform = latticeTransform(vs, origin);
-    WorldGrids world = resample(objects, vs, origin, xform, report.stages);
+    WorldGrids world = resample(objects, vs, origin, xform, settings.kernel == VdbKernel::Auto, report.stages);
     report.activeVoxels = world.activeVoxels;
     report.densityVolume = world.densitySum * vs * vs * vs;
     report.unresolved = world.unresolved;
+    report.slowSolves = world.slowSolves;
+    report.candidates = world.candidates;
 
     openvdb::GridPtrVec grids;
     stamp(*world.density, "density", openvdb::GRID_FOG_VOLUME, info);

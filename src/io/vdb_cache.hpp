@@ -51,11 +51,16 @@ struct VdbFrameInfo {
     std::string upAxis = "y";  ///< metadata only: the grids are in dgv's world frame (Y up)
 };
 
+/// Which vector kernel inverts the cell maps: AVX2 where the CPU has it (Auto), or SSE2 (any
+/// x86-64). Both give the same bits (tested); the choice only exists to test that.
+enum class VdbKernel { Auto, Sse2 };
+
 struct VdbWriteSettings {
     Real worldVoxelSize = 0;     ///< world-grid voxel size; 0 = the smallest lattice spacing
     bool halfFloat = false;      ///< store density, vel, contact as 16-bit floats
     bool surface = false;        ///< add the `surface` level set (objects with a surface mesh)
     Real surfaceHalfWidth = 3;   ///< narrow-band half width of `surface`, in voxels
+    VdbKernel kernel = VdbKernel::Auto;
 };
 
 /// Wall-clock seconds of the stages of writeVdbFrame (`dgv bench vdb` prints them).
@@ -80,6 +85,9 @@ struct VdbWriteReport {
     Real objectVolume = 0;       ///< sum of the deformed cell volumes of all objects
     Index unresolved = 0;        ///< voxel-cell pairs where inverting the trilinear map failed
                                  ///< (inverted or degenerate cells); 0 for a valid state
+    Index candidates = 0;        ///< voxel-cell pairs solved (the prefilter's survivors)
+    Index slowSolves = 0;        ///< voxel-cell pairs the batched Newton steps left unconverged
+                                 ///< (finished one at a time; strongly distorted cells)
     VdbStageSeconds stages;      ///< where the time went
 };
 

@@ -231,7 +231,7 @@ TEST_CASE("vdb_cache: the integral of density equals the object's volume", "[io]
             double sum = 0;
             float lo = 1, hi = 0;
             for (auto it = density->cbeginValueOn(); it; ++it) {
-                sum += *it;
+                sum += double(*it) * double(it.getVoxelCount());  // a tile counts its 8^3 voxels
                 lo = std::min(lo, *it);
                 hi = std::max(hi, *it);
             }
@@ -242,6 +242,18 @@ TEST_CASE("vdb_cache: the integral of density equals the object's volume", "[io]
             // undeformed cells: the box filter is exact (to float rounding of the values)
             const Real tol = twist == 0 ? 1e-6 : 1e-2;
             CHECK(std::abs(integral / volume - 1) < tol);
+            // whole 8^3 blocks inside the object are active tiles of density 1; every other
+            // block with an active voxel is a leaf, as in vel
+            Index tiles = 0, tilesNotOne = 0;
+            for (auto it = density->cbeginValueOn(); it; ++it)
+                if (!it.isVoxelValue()) {
+                    ++tiles;
+                    if (*it != 1.0f) ++tilesNotOne;
+                }
+            auto vel = openvdb::gridPtrCast<openvdb::Vec3SGrid>(grids.at("vel"));
+            CHECK(Index(density->tree().leafCount()) + tiles == Index(vel->tree().leafCount()));
+            CHECK(tilesNotOne == 0);
+            if (vsRatio == 0.25) CHECK(tiles > 0);  // the ball spans 48 voxels
             // all grids share one topology
             CHECK(grids.at("vel")->activeVoxelCount() == density->activeVoxelCount());
             CHECK(grids.at("rest")->activeVoxelCount() == density->activeVoxelCount());
@@ -373,7 +385,7 @@ TEST_CASE("vdb_cache: vel, rest and contact values", "[io][vdb]") {
     }
 }
 
-TEST_CASE("vdb_cache: same frame, any thread count, identical grids", "[io][vdb]") {
+TEST_CASE("vdb_cache: same frame, any thread count or vector kernel, identical grids", "[io][vdb]") {
     test::TempDir dir("vdb-determinism");
     const TestFrame f = makeFrame(5, 0.2, Vec3(0.1, 0.2, 0.3), 0.7);
     VdbWriteSettings s;
@@ -384,6 +396,12 @@ TEST_CASE("vdb_cache: same frame, any thread count, identical grids", "[io][vdb]
         tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
         files.push_back(dir.path() / ("f" + std::to_string(threads) + ".vdb"));
         (void)writeVdbFrame(files.back(), {f.object()}, VdbFrameInfo{}, s);
+    }
+    {  // the SSE2 kernel gives the AVX2 kernel's bits (the same where the CPU lacks AVX2)
+        VdbWriteSettings sse2 = s;
+        sse2.kernel = VdbKernel::Sse2;
+        files.push_back(dir.path() / "sse2.vdb");
+        (void)writeVdbFrame(files.back(), {f.object()}, VdbFrameInfo{}, sse2);
     }
     const auto a = byName(readAll(files[0]));
     for (std::size_t k = 1; k < files.size(); ++k) {
