@@ -582,34 +582,40 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             const CellMap& m = maps[static_cast<std::size_t>(pairs[e].second)];
             Eigen::Vector3i lo = m.lo.cwiseMax(base), hi = m.hi.cwiseMin(base + Eigen::Vector3i::Constant(kLeafDim - 1));
             if ((lo.array() > hi.array()).any()) continue;
-            const Vec3 step = m.centreInverse.col(0) * vs;  // ds per +1 in i
-            Vec3 invStep = Vec3::Zero();  // used where |step| > 1e-300
-            for (int a = 0; a < 3; ++a)
-                if (std::abs(step[a]) > 1e-300) invStep[a] = 1 / step[a];
+            // candidates: per row, the voxels whose affine guess s(i) = s_row + (i - lo) step lies
+            // within the margin, -margin <= s_a(i) <= 1 + margin on every axis: on an axis with
+            // step_a != 0 that is i - lo in [(A_a - s_a) / step_a, (B_a - s_a) / step_a]
+            const Vec3 step = m.centreInverse.col(0) * vs;  // ds per +1 in i, j, k
+            const Vec3 stepJ = m.centreInverse.col(1) * vs, stepK = m.centreInverse.col(2) * vs;
+            const Vec3 sLo = Vec3::Constant(0.5) + m.centreInverse * (origin + vs * lo.cast<Real>() - m.centre);
+            Vec3 A, B, inv;
+            bool flat[3];
+            for (int a = 0; a < 3; ++a) {
+                flat[a] = !(std::abs(step[a]) > 1e-300);
+                inv[a] = flat[a] ? 0 : 1 / step[a];
+                A[a] = step[a] > 0 ? -m.margin[a] : 1 + m.margin[a];
+                B[a] = step[a] > 0 ? 1 + m.margin[a] : -m.margin[a];
+            }
             const Real detMin = 1e-12 * m.h * m.h * m.h;
-            // candidates: per row, the voxels whose affine guess lies within the margin
             batch.n = 0;
             for (int kz = lo[2]; kz <= hi[2]; ++kz)
                 for (int jy = lo[1]; jy <= hi[1]; ++jy) {
-                    // affine guess along the row: s(i) = s_lo + (i - lo) step; keep the i with
-                    // -margin <= s_a(i) <= 1 + margin for every axis
-                    const Vec3 p0 = origin + vs * Vec3(lo[0], jy, kz);
-                    const Vec3 s0 = Vec3::Constant(0.5) + m.centreInverse * (p0 - m.centre);
+                    const Vec3 s0 = sLo + Real(jy - lo[1]) * stepJ + Real(kz - lo[2]) * stepK;
                     Real tmin = 0, tmax = hi[0] - lo[0];
                     for (int a = 0; a < 3; ++a) {
-                        const Real l = -m.margin[a] - s0[a], u = 1 + m.margin[a] - s0[a];
-                        if (step[a] > 1e-300) {
-                            tmin = std::max(tmin, l * invStep[a]);
-                            tmax = std::min(tmax, u * invStep[a]);
-                        } else if (step[a] < -1e-300) {
-                            tmin = std::max(tmin, u * invStep[a]);
-                            tmax = std::min(tmax, l * invStep[a]);
-                        } else if (l > 0 || u < 0) {
-                            tmax = -1;
+                        if (flat[a]) {
+                            if (s0[a] < -m.margin[a] || s0[a] > 1 + m.margin[a]) tmax = -1;
+                        } else {
+                            tmin = std::max(tmin, (A[a] - s0[a]) * inv[a]);
+                            tmax = std::min(tmax, (B[a] - s0[a]) * inv[a]);
                         }
                     }
-                    if (tmin > tmax) continue;
-                    const int i0 = lo[0] + static_cast<int>(std::ceil(tmin)), i1 = lo[0] + static_cast<int>(std::floor(tmax));
+                    if (!(tmin <= tmax)) continue;
+                    // 0 <= tmin <= tmax <= 7: ceil and floor by truncation (std::ceil is a call
+                    // without SSE4.1)
+                    int t0 = static_cast<int>(tmin);
+                    t0 += Real(t0) < tmin ? 1 : 0;
+                    const int i0 = lo[0] + t0, i1 = lo[0] + static_cast<int>(tmax);
                     for (int ix = i0; ix <= i1; ++ix) {
                         const int n = batch.n++;
                         batch.p[0][n] = origin[0] + vs * ix;
