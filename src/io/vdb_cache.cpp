@@ -129,10 +129,7 @@ struct CellMap {
 struct InverseSolve {
     Vec3 s;
     Mat3 inv;
-    Vec3 p;
     Vec3 g2;  // |grad s_a|^2 = |row a of J^-1|^2
-    /// First-order guess for the solution at q: s + J^-1 (q - p).
-    Vec3 predict(const Vec3& q) const { return s + inv * (q - p); }
 };
 
 /// Newton's method for x(s) = p from sol.s (the prediction), written out in scalars: each step
@@ -144,7 +141,6 @@ struct InverseSolve {
 inline bool solveCell(const CellMap& m, const Vec3& p, Real detMin, InverseSolve& sol) {
     const std::array<Vec3, 8>& a = m.x;
     Real s0 = sol.s[0], s1 = sol.s[1], s2 = sol.s[2];
-    sol.p = p;
     for (int it = 0; it < 12; ++it) {
         const Real s01 = s0 * s1, s02 = s0 * s2, s12 = s1 * s2, s012 = s01 * s2;
         Real r[3], c0[3], c1[3], c2[3];  // residual x(s) - p; Jacobian columns
