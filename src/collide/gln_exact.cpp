@@ -1,6 +1,7 @@
 #include "collide/gln_exact.hpp"
 
 #include "base/check.hpp"
+#include "base/cpu.hpp"
 #include "base/parallel.hpp"
 
 #include <immintrin.h>
@@ -160,13 +161,7 @@ constexpr double kTwoPi = 2 * M_PI;
 
 }  // namespace
 
-bool glnAvx2Available() {
-    static const bool has = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx2") != 0;
-    }();
-    return has;
-}
+bool glnAvx2Available() { return cpuHasAvx2(); }
 
 GlnSum& GlnSum::operator+=(const GlnSum& o) {
     halfAngle += o.halfAngle;

@@ -15,6 +15,7 @@
 
 #include "io/vdb_cache.hpp"
 
+#include "base/cpu.hpp"
 #include "base/errors.hpp"
 #include "base/parallel.hpp"
 #include "io/atomic_file.hpp"
@@ -120,16 +121,13 @@ struct CellMap {
     Eigen::Vector3i lo, hi;  // world voxel index range to visit (inclusive)
     bool valid = false;      // centre Jacobian invertible and positive
     Real acceptStep = 0;     // Newton stops after a step this small (s units), see solveCell
-    Real kNewton = 0;        // 4 |J(1/2)^-1| |nonlinear part|: bounds second-order errors in s
-    Vec3 reach;              // per axis: bound on g_a hv (coverage > 0 needs -reach < s_a < 1 + reach)
-                             // while |s - 1/2| <= 1
 };
 
-/// A solved voxel: s = x^-1(p) and J^-1 at (the last Newton iterate before) s.
+/// A solved voxel: s = x^-1(p), and |grad s_a|^2 = |row a of J^-1|^2 with J at the last Newton
+/// iterate before s.
 struct InverseSolve {
     Vec3 s;
-    Mat3 inv;
-    Vec3 g2;  // |grad s_a|^2 = |row a of J^-1|^2
+    Vec3 g2;
 };
 
 /// Newton's method for x(s) = p from sol.s (the prediction), written out in scalars: each step
@@ -166,7 +164,6 @@ inline bool solveCell(const CellMap& m, const Vec3& p, Real detMin, InverseSolve
         s2 = std::min(Real(2), std::max(Real(-1), s2 - d2));
         if (std::max(std::abs(d0), std::max(std::abs(d1), std::abs(d2))) < m.acceptStep) {
             sol.s = Vec3(s0, s1, s2);
-            sol.inv << r0x * id, r0y * id, r0z * id, r1x * id, r1y * id, r1z * id, r2x * id, r2y * id, r2z * id;
             sol.g2 = Vec3(r0x * r0x + r0y * r0y + r0z * r0z, r1x * r1x + r1y * r1y + r1z * r1z,
                           r2x * r2x + r2y * r2y + r2z * r2z) * (id * id);
             return true;
@@ -191,7 +188,7 @@ inline Real coverage(const Vec3& s, const Vec3& g2, Real hv) {
     return c;
 }
 
-// ---- batched Newton (SoA, 4 lanes) ----------------------------------------------------------
+// ---- batched Newton (SoA, 2 or 4 lanes) -------------------------------------------------------
 // The candidates of one (cell, leaf block) pair are solved together: each starts from the cell's
 // affine guess s = 1/2 + J(1/2)^-1 (p - x(1/2)) and takes kBatchSteps Newton steps with no
 // branches, 2 voxels at a time in SSE2 registers (any x86-64) or 4 in AVX2 registers where the
@@ -205,7 +202,6 @@ constexpr int kBatchMax = kLeafVoxels + kLanes;
 struct CandidateBatch {
     alignas(32) double p[3][kBatchMax];
     alignas(32) double s[3][kBatchMax];
-    alignas(32) double g2[3][kBatchMax];
     alignas(32) std::int64_t state[kBatchMax];  // 1 converged, 0 not yet, -1 degenerate Jacobian
     // for converged lanes: coverage c and the c-weighted values
     alignas(32) double cov[kBatchMax];
@@ -272,9 +268,6 @@ using M4 = std::int64_t __attribute__((vector_size(32)));
         const M done = dmax < m.acceptStep;                                                                    \
         const M state = bad ? M{} - 1 : (done ? M{} + 1 : M{});                                                \
         DGV_UNROLL3 for (int q = 0; q < 3; ++q) std::memcpy(&b.s[q][i0], &s[q], sizeof(V));                    \
-        std::memcpy(&b.g2[0][i0], &g0, sizeof(V));                                                             \
-        std::memcpy(&b.g2[1][i0], &g1, sizeof(V));                                                             \
-        std::memcpy(&b.g2[2][i0], &g2, sizeof(V));                                                             \
         std::memcpy(&b.state[i0], &state, sizeof(M));                                                          \
         /* the coverage (as coverage(), lane-wise) and the weighted values */                                  \
         const V gg[3] = {g0, g1, g2};                                                                          \
@@ -334,13 +327,6 @@ __attribute__((noinline, target("avx2"))) void newtonBatchAvx2(const CellMap& m,
     DGV_NEWTON_BATCH_BODY(V4, M4)
 #undef VSQRT
 }
-bool haveAvx2() {
-    static const bool has = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx2") != 0;
-    }();
-    return has;
-}
 #endif
 #undef DGV_NEWTON_BATCH_BODY
 #undef DGV_UNROLL2
@@ -348,7 +334,7 @@ bool haveAvx2() {
 
 void newtonBatch(const CellMap& m, double detMin, double hv, bool allowAvx2, CandidateBatch& b) {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-    if (allowAvx2 && haveAvx2()) return newtonBatchAvx2(m, detMin, hv, b);
+    if (allowAvx2 && cpuHasAvx2()) return newtonBatchAvx2(m, detMin, hv, b);
 #else
     (void)allowAvx2;
 #endif
@@ -468,24 +454,26 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             // These hold for D <= 1, i.e. while t_a <= 1/2: used for kNewton <= 1/2 and a reach
             // below 0.3; more distorted cells keep the old, generous margin (Newton decides).
             const Real nonlinear = m.x[4].norm() + m.x[5].norm() + m.x[6].norm() + 2 * m.x[7].norm();
-            m.kNewton = 4 * m.centreInverse.norm() * nonlinear;  // see solveCell
+            const Real kNewton = 4 * m.centreInverse.norm() * nonlinear;  // see solveCell
             const Real hv = 0.5 * vs;
-            const Real rho = m.kNewton / 2;
+            const Real rho = kNewton / 2;
+            // reach_a bounds t_a = |grad s_a| hv: coverage > 0 needs -reach < s_a < 1 + reach
+            Vec3 reach;
             Real maxReach = 0;
             for (int a = 0; a < 3; ++a) {
-                m.reach[a] = hv * (m.centreInverse.row(a).norm() + (rho < 1 ? rho / (1 - rho) : Real(1e30)) * m.centreInverse.norm());
-                maxReach = std::max(maxReach, m.reach[a]);
+                reach[a] = hv * (m.centreInverse.row(a).norm() + (rho < 1 ? rho / (1 - rho) : Real(1e30)) * m.centreInverse.norm());
+                maxReach = std::max(maxReach, reach[a]);
             }
             // world box: the hull of the corners contains the image of the unit cube (trilinear
             // weights are convex); a point with coverage > 0 lies within s_b in [-mu_b, 1 + mu_b]
             // (mu the margin), so x_a is at most sum_b |J_ab(xi)| mu_b beyond the hull, with
             // |J_ab(xi) - J_ab(1/2)| <= sqrt(3) D nonlinear.
             Vec3 pad = Vec3::Constant(vs + 2.25 * nonlinear);
-            bool tight = m.kNewton <= 0.5 && maxReach <= 0.3;
+            bool tight = kNewton <= 0.5 && maxReach <= 0.3;
             if (tight) {
                 const Real D = 0.5 + maxReach;
                 const Real nBound = (m.x[4].norm() + m.x[5].norm() + m.x[6].norm()) * D * D + m.x[7].norm() * (D * D * D + 1.5 * D * D);
-                for (int a = 0; a < 3; ++a) m.margin[a] = m.reach[a] + 1.01 * m.centreInverse.row(a).norm() * nBound + 1e-9;
+                for (int a = 0; a < 3; ++a) m.margin[a] = reach[a] + 1.01 * m.centreInverse.row(a).norm() * nBound + 1e-9;
                 tight = m.margin.maxCoeff() <= 0.5;  // the bounds above assume |s - 1/2| <= 1
             }
             if (tight) {
@@ -501,7 +489,7 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                     m.margin[a] = g * hv * 1.5 + g * nonlinear * 2.25 + 1e-9;
                 }
             }
-            m.acceptStep = m.kNewton > 1e-4 ? 1e-6 / std::sqrt(m.kNewton) : Real(1e-4);
+            m.acceptStep = kNewton > 1e-4 ? 1e-6 / std::sqrt(kNewton) : Real(1e-4);
             for (int a = 0; a < 3; ++a) {
                 m.lo[a] = static_cast<int>(std::ceil((bmin[a] - pad[a] - origin[a]) / vs));
                 m.hi[a] = static_cast<int>(std::floor((bmax[a] + pad[a] - origin[a]) / vs));
