@@ -51,9 +51,10 @@ struct VdbFrameInfo {
     std::string upAxis = "y";  ///< metadata only: the grids are in dgv's world frame (Y up)
 };
 
-/// Which vector kernel inverts the cell maps: AVX2 where the CPU has it (Auto), or SSE2 (any
-/// x86-64). Both give the same bits (tested); the choice only exists to test that.
-enum class VdbKernel { Auto, Sse2 };
+/// Which vector kernel inverts the cell maps: the widest the CPU runs (Auto: AVX-512, else AVX2,
+/// else SSE2), or a narrower one (a kernel the CPU lacks falls back to the next narrower). All
+/// give the same bits (tested); the choice only exists to test that.
+enum class VdbKernel { Auto, Avx512, Avx2, Sse2 };
 
 struct VdbWriteSettings {
     Real worldVoxelSize = 0;     ///< world-grid voxel size; 0 = the smallest lattice spacing
