@@ -55,6 +55,10 @@ struct VdbFrameInfo {
 /// else SSE2), or a narrower one (a kernel the CPU lacks falls back to the next narrower). All
 /// give the same bits (tested); the choice only exists to test that.
 enum class VdbKernel { Auto, Avx512, Avx2, Sse2 };
+/// Who serialises the grids: dgv's parallel writer (the leaf buffers compressed once, on every
+/// core, by OpenVDB's own leaf code) or openvdb::io::Archive::write. Both write the same bytes
+/// but for the file's random UUID (tested); the choice only exists to test that.
+enum class VdbWriter { Parallel, OpenVdb };
 
 struct VdbWriteSettings {
     Real worldVoxelSize = 0;     ///< world-grid voxel size; 0 = the smallest lattice spacing
@@ -62,6 +66,7 @@ struct VdbWriteSettings {
     bool surface = false;        ///< add the `surface` level set (objects with a surface mesh)
     Real surfaceHalfWidth = 3;   ///< narrow-band half width of `surface`, in voxels
     VdbKernel kernel = VdbKernel::Auto;
+    VdbWriter writer = VdbWriter::Parallel;
 };
 
 /// Wall-clock seconds of the stages of writeVdbFrame (`dgv bench vdb` prints them).
