@@ -200,7 +200,7 @@ inline Real coverage(const Vec3& s, const Vec3& g2, Real hv) {
 // either way, no FMA, so the same bits; tested). The kernel is bound by the latency of its long
 // dependency chain (two Newton steps, a division each, then three square roots and divisions
 // for the coverage), so wider registers pay even where, as on AMD Zen 4, a 512-bit operation
-// takes two 256-bit passes: 8 lanes took 0.36 s where 4 took 0.50 s in the benchmark. (An
+// takes two 256-bit passes: 8 lanes took about 0.37 s where 4 took 0.50 s in the benchmark. (An
 // 8-lane type compiled for AVX2 alone, two registers per value, was 3x slower: GCC splits it
 // badly.) A lane whose last step was not below the cell's acceptStep goes on in solveCell; one
 // that met a Jacobian with det <= detMin is unresolved, as in solveCell.
