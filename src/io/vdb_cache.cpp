@@ -358,9 +358,8 @@ __attribute__((noinline, target("avx512f"))) void newtonBatchAvx512(const CellMa
 /// The widest kernel that `asked` allows and the CPU runs.
 VdbKernel resolveKernel(VdbKernel asked) {
 #ifdef DGV_VDB_WIDE_KERNELS
-    if (asked == VdbKernel::Auto && cpuHasAvx512f()) return VdbKernel::Avx512;
-    if ((asked == VdbKernel::Auto || asked == VdbKernel::Avx2) && cpuHasAvx2()) return VdbKernel::Avx2;
-    if (asked == VdbKernel::Avx512 && cpuHasAvx512f()) return VdbKernel::Avx512;
+    if ((asked == VdbKernel::Auto || asked == VdbKernel::Avx512) && cpuHasAvx512f()) return VdbKernel::Avx512;
+    if (asked != VdbKernel::Sse2 && cpuHasAvx2()) return VdbKernel::Avx2;
 #endif
     return VdbKernel::Sse2;
 }
@@ -790,10 +789,11 @@ struct SerialisedLeaves {
 
 /// Bytes LeafNode::writeBuffers writes before the values: the value mask, the mask-compression
 /// byte, the inactive values and the selection mask that byte announces (io/Compression.h).
+constexpr std::size_t kLeafMaskBytes = openvdb::util::NodeMask<3>::WORD_COUNT * sizeof(openvdb::Index64);
 template <typename ValueT>
 std::size_t leafHeaderBytes(std::int8_t meta) {
     namespace io = openvdb::io;
-    constexpr std::size_t mask = openvdb::util::NodeMask<3>::WORD_COUNT * sizeof(openvdb::Index64);
+    constexpr std::size_t mask = kLeafMaskBytes;
     std::size_t n = mask + 1;
     if (meta == io::NO_MASK_AND_ONE_INACTIVE_VAL || meta == io::MASK_AND_ONE_INACTIVE_VAL) n += sizeof(ValueT);
     if (meta == io::MASK_AND_TWO_INACTIVE_VALS) n += 2 * sizeof(ValueT);
@@ -837,7 +837,7 @@ std::vector<SerialisedLeaves> serialiseLeaves(const openvdb::GridCPtrVec& grids,
                     const LeafT& leaf = *leaves[i];
                     const std::size_t start = bytes.size();
                     leaf.writeBuffers(os, toHalf);
-                    const std::int8_t meta = static_cast<std::int8_t>(bytes[start + leafHeaderBytes<ValueT>(0) - 1]);
+                    const std::int8_t meta = static_cast<std::int8_t>(bytes[start + kLeafMaskBytes]);  // after the mask
                     o.maskMeta[i] = meta;
                     if (leaf.onVoxelCount() > 0) {
                         o.compressedSize[i] = static_cast<std::int64_t>(bytes.size() - start - leafHeaderBytes<ValueT>(meta));
