@@ -212,13 +212,21 @@ struct CandidateBatch {
     alignas(64) double p[3][kBatchMax];
     alignas(64) double s[3][kBatchMax];
     alignas(64) std::int64_t state[kBatchMax];  // 1 converged, 0 not yet, -1 degenerate Jacobian
-    // for converged lanes: coverage c and the c-weighted values
+    // coverage c (0 below 1e-9 and for lanes with state <= 0) and the c-weighted values
     alignas(64) double cov[kBatchMax];
     alignas(64) double vel[3][kBatchMax];
     alignas(64) double rest[3][kBatchMax];
     alignas(64) double con[kBatchMax];
     int at[kBatchMax];                          // offset in the leaf block
     int n = 0;
+};
+
+/// One leaf block's coverage-weighted sums, per voxel (the offset in the block).
+struct BlockSums {
+    double cov[kLeafVoxels];
+    double vel[kLeafVoxels][3];
+    double rest[kLeafVoxels][3];
+    double con[kLeafVoxels];
 };
 
 using V2 = double __attribute__((vector_size(16)));        // SSE2: any x86-64
@@ -233,6 +241,7 @@ using M8 = std::int64_t __attribute__((vector_size(64)));
 #define DGV_NEWTON_BATCH_BODY(V, M)                                                                            \
     const std::array<Vec3, 8>& a = m.x;                                                                        \
     const V zero = V{}, one = zero + 1., lowS = one * -1., highS = one * 2.;                                   \
+    M pending = M{};                                                                                           \
     for (int i0 = 0; i0 < b.n; i0 += int(sizeof(V) / sizeof(double))) {                                        \
         V p[3], s[3];                                                                                          \
         DGV_UNROLL3 for (int q = 0; q < 3; ++q) std::memcpy(&p[q], &b.p[q][i0], sizeof(V));                    \
@@ -278,6 +287,7 @@ using M8 = std::int64_t __attribute__((vector_size(64)));
         const V g2 = (r2[0] * r2[0] + r2[1] * r2[1] + r2[2] * r2[2]) * id2;                                    \
         const M done = dmax < m.acceptStep;                                                                    \
         const M state = bad ? M{} - 1 : (done ? M{} + 1 : M{});                                                \
+        pending |= ~done | bad;                                                                                \
         DGV_UNROLL3 for (int q = 0; q < 3; ++q) std::memcpy(&b.s[q][i0], &s[q], sizeof(V));                    \
         std::memcpy(&b.state[i0], &state, sizeof(M));                                                          \
         /* the coverage (as coverage(), lane-wise) and the weighted values */                                  \
@@ -293,6 +303,8 @@ using M8 = std::int64_t __attribute__((vector_size(64)));
             const V f = ov / (tg + tg);                                                                        \
             c = whole ? c : (ov <= 0 ? zero : c * (f < one ? f : one));                                        \
         }                                                                                                      \
+        /* weight 0 (so sums may add every lane) below 1e-9 and where the lane is not solved here */          \
+        c = (done & ~bad & (c > 1e-9)) ? c : zero;                                                             \
         std::memcpy(&b.cov[i0], &c, sizeof(V));                                                                \
         const V s01 = s[0] * s[1], s02 = s[0] * s[2], s12 = s[1] * s[2], s012 = s01 * s[2];                    \
         DGV_UNROLL3 for (int q = 0; q < 3; ++q) {                                                              \
@@ -308,7 +320,10 @@ using M8 = std::int64_t __attribute__((vector_size(64)));
                      m.k[5] * (sc[0] * sc[2]) + m.k[6] * (sc[1] * sc[2]) + m.k[7] * (sc[0] * sc[1] * sc[2]);   \
         const V ck = c * k;                                                                                    \
         std::memcpy(&b.con[i0], &ck, sizeof(V));                                                               \
-    }
+    }                                                                                                          \
+    bool any = false;                                                                                          \
+    for (std::size_t q = 0; q < sizeof(M) / sizeof(std::int64_t); ++q) any |= pending[q] != 0;                  \
+    return any;
 
 inline void sqrtGeneric(V2& x) {
 #if defined(__SSE2__)
@@ -321,7 +336,7 @@ inline void sqrtGeneric(V2& x) {
 #endif
 }
 
-__attribute__((noinline)) void newtonBatchGeneric(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
+__attribute__((noinline)) bool newtonBatchGeneric(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
 #define VSQRT sqrtGeneric
     DGV_NEWTON_BATCH_BODY(V2, M2)
 #undef VSQRT
@@ -334,7 +349,7 @@ __attribute__((target("avx2"))) inline void sqrtAvx2(V4& x) {
     v = _mm256_sqrt_pd(v);
     std::memcpy(&x, &v, sizeof v);
 }
-__attribute__((noinline, target("avx2"))) void newtonBatchAvx2(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
+__attribute__((noinline, target("avx2"))) bool newtonBatchAvx2(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
 #define VSQRT sqrtAvx2
     DGV_NEWTON_BATCH_BODY(V4, M4)
 #undef VSQRT
@@ -345,7 +360,7 @@ __attribute__((target("avx512f"))) inline void sqrtAvx512(V8& x) {
     v = _mm512_mask_sqrt_pd(v, __mmask8(0xff), v);  // all lanes; _mm512_sqrt_pd trips GCC 12's -Wmaybe-uninitialized
     std::memcpy(&x, &v, sizeof v);
 }
-__attribute__((noinline, target("avx512f"))) void newtonBatchAvx512(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
+__attribute__((noinline, target("avx512f"))) bool newtonBatchAvx512(const CellMap& m, double detMin, double hv, CandidateBatch& b) {
 #define VSQRT sqrtAvx512
     DGV_NEWTON_BATCH_BODY(V8, M8)
 #undef VSQRT
@@ -354,6 +369,131 @@ __attribute__((noinline, target("avx512f"))) void newtonBatchAvx512(const CellMa
 #undef DGV_NEWTON_BATCH_BODY
 #undef DGV_UNROLL2
 #undef DGV_UNROLL3
+
+// ---- candidates of one (cell, leaf block) pair ------------------------------------------------
+/// The voxels of the box lo..hi (inside one leaf block) whose affine guess s = sLo + (i - lo) step
+/// + (j - lo) stepJ + (k - lo) stepK lies within the cell's margin, -margin <= s_a <= 1 + margin
+/// on every axis: outside it the coverage is provably 0 (see the margins in resample).
+struct CandidateRows {
+    Vec3 step, stepJ, stepK;  // ds per +1 in i, j, k
+    Vec3 sLo;                 // the affine guess at voxel lo
+    Vec3 margin;
+    Eigen::Vector3i lo, hi, base;
+    Vec3 origin;
+    Real vs;
+};
+
+/// Fills b (p, at, n) with the candidates, row by row: on an axis with step_a != 0 a row's
+/// candidates are i - lo in [(A_a - s_a) / step_a, (B_a - s_a) / step_a].
+void gatherCandidatesScalar(const CandidateRows& r, CandidateBatch& b) {
+    Vec3 A, B, inv;
+    bool flat[3];
+    for (int a = 0; a < 3; ++a) {
+        flat[a] = !(std::abs(r.step[a]) > 1e-300);
+        inv[a] = flat[a] ? 0 : 1 / r.step[a];
+        A[a] = r.step[a] > 0 ? -r.margin[a] : 1 + r.margin[a];
+        B[a] = r.step[a] > 0 ? 1 + r.margin[a] : -r.margin[a];
+    }
+    int n = 0;  // a local, not b.n: stores to b.at may alias b.n
+    for (int kz = r.lo[2]; kz <= r.hi[2]; ++kz)
+        for (int jy = r.lo[1]; jy <= r.hi[1]; ++jy) {
+            const Vec3 s0 = r.sLo + Real(jy - r.lo[1]) * r.stepJ + Real(kz - r.lo[2]) * r.stepK;
+            Real tmin = 0, tmax = r.hi[0] - r.lo[0];
+            for (int a = 0; a < 3; ++a) {
+                if (flat[a]) {
+                    if (s0[a] < -r.margin[a] || s0[a] > 1 + r.margin[a]) tmax = -1;
+                } else {
+                    tmin = std::max(tmin, (A[a] - s0[a]) * inv[a]);
+                    tmax = std::min(tmax, (B[a] - s0[a]) * inv[a]);
+                }
+            }
+            if (!(tmin <= tmax)) continue;
+            // 0 <= tmin <= tmax <= 7: ceil and floor by truncation (std::ceil is a call without
+            // SSE4.1)
+            int t0 = static_cast<int>(tmin);
+            t0 += Real(t0) < tmin ? 1 : 0;
+            const int i0 = r.lo[0] + t0, i1 = r.lo[0] + static_cast<int>(tmax);
+            const double p1 = r.origin[1] + r.vs * jy, p2 = r.origin[2] + r.vs * kz;
+            const int atRow = (jy - r.base[1]) * kLeafDim + (kz - r.base[2]);
+            for (int ix = i0; ix <= i1; ++ix, ++n) {
+                b.p[0][n] = r.origin[0] + r.vs * ix;
+                b.p[1][n] = p1;
+                b.p[2][n] = p2;
+                b.at[n] = (ix - r.base[0]) * kLeafDim * kLeafDim + atRow;
+            }
+        }
+    b.n = n;
+}
+
+#ifdef DGV_VDB_WIDE_KERNELS
+/// gatherCandidatesScalar with a row in one zmm register: the guess tested lane by lane, the
+/// passing lanes packed by vcompress and stored unconditionally (no branch per row). The test
+/// differs from the scalar one only by rounding, at the margin, where the coverage is 0: the
+/// same voxels receive the same values (the kernels' bit-equality test covers it).
+__attribute__((noinline, noclone, target("avx512f,popcnt"))) void gatherCandidatesAvx512(const CandidateRows& r, CandidateBatch& b) {
+    const __m512d lane = _mm512_set_pd(7, 6, 5, 4, 3, 2, 1, 0);
+    const int len = r.hi[0] - r.lo[0];  // lanes 0..len are in the box
+    const __mmask8 inBox = static_cast<__mmask8>((2u << len) - 1);
+    // (scalars and named registers: arrays of __m512d end up on the stack)
+    const __m512d step0 = _mm512_mul_pd(lane, _mm512_set1_pd(r.step[0]));
+    const __m512d step1 = _mm512_mul_pd(lane, _mm512_set1_pd(r.step[1]));
+    const __m512d step2 = _mm512_mul_pd(lane, _mm512_set1_pd(r.step[2]));
+    const __m512d low0 = _mm512_set1_pd(-r.margin[0]), high0 = _mm512_set1_pd(1 + r.margin[0]);
+    const __m512d low1 = _mm512_set1_pd(-r.margin[1]), high1 = _mm512_set1_pd(1 + r.margin[1]);
+    const __m512d low2 = _mm512_set1_pd(-r.margin[2]), high2 = _mm512_set1_pd(1 + r.margin[2]);
+    // p_x = origin_x + vs i, as the scalar code rounds it
+    const __m512d px = _mm512_add_pd(_mm512_set1_pd(r.origin[0]),
+                                     _mm512_mul_pd(_mm512_set1_pd(r.vs), _mm512_add_pd(_mm512_set1_pd(double(r.lo[0])), lane)));
+    static_assert(kLeafDim * kLeafDim == 64, "at = 64 i + 8 j + k");
+    const __m512i laneAt = _mm512_set_epi32(0, 0, 0, 0, 0, 0, 0, 0, 7 * 64, 6 * 64, 5 * 64, 4 * 64, 3 * 64, 2 * 64, 64, 0);
+    const double sLo0 = r.sLo[0], sLo1 = r.sLo[1], sLo2 = r.sLo[2];
+    const double sJ0 = r.stepJ[0], sJ1 = r.stepJ[1], sJ2 = r.stepJ[2];
+    const double sK0 = r.stepK[0], sK1 = r.stepK[1], sK2 = r.stepK[2];
+    const double ox1 = r.origin[1], ox2 = r.origin[2], vs = r.vs;
+    const int lo1 = r.lo[1], hi1 = r.hi[1], lo2 = r.lo[2], hi2 = r.hi[2];
+    const int at0 = (r.lo[0] - r.base[0]) * kLeafDim * kLeafDim - r.base[1] * kLeafDim - r.base[2];
+    double* const p0 = b.p[0];
+    double* const p1 = b.p[1];
+    double* const p2 = b.p[2];
+    int* const atOut = b.at;
+    int n = 0;
+    for (int kz = lo2; kz <= hi2; ++kz) {
+        const double dk = double(kz - lo2);
+        const __m512d pz = _mm512_set1_pd(ox2 + vs * kz);
+        for (int jy = lo1; jy <= hi1; ++jy) {
+            const double dj = double(jy - lo1);
+            // as the scalar code: sLo + dj stepJ + dk stepK
+            const __m512d s0 = _mm512_add_pd(_mm512_set1_pd(sLo0 + dj * sJ0 + dk * sK0), step0);
+            const __m512d s1 = _mm512_add_pd(_mm512_set1_pd(sLo1 + dj * sJ1 + dk * sK1), step1);
+            const __m512d s2 = _mm512_add_pd(_mm512_set1_pd(sLo2 + dj * sJ2 + dk * sK2), step2);
+            __mmask8 keep = _mm512_mask_cmp_pd_mask(inBox, s0, low0, _CMP_GE_OQ);
+            keep = _mm512_mask_cmp_pd_mask(keep, s0, high0, _CMP_LE_OQ);
+            keep = _mm512_mask_cmp_pd_mask(keep, s1, low1, _CMP_GE_OQ);
+            keep = _mm512_mask_cmp_pd_mask(keep, s1, high1, _CMP_LE_OQ);
+            keep = _mm512_mask_cmp_pd_mask(keep, s2, low2, _CMP_GE_OQ);
+            keep = _mm512_mask_cmp_pd_mask(keep, s2, high2, _CMP_LE_OQ);
+            // stored whatever keep is (no branch per row); n + 8 <= kBatchMax because n counts
+            // distinct voxels of the block, at most kLeafVoxels
+            _mm512_storeu_pd(p0 + n, _mm512_maskz_compress_pd(keep, px));
+            _mm512_storeu_pd(p1 + n, _mm512_set1_pd(ox1 + vs * jy));
+            _mm512_storeu_pd(p2 + n, pz);
+            const __m512i at = _mm512_add_epi32(_mm512_set1_epi32(at0 + jy * kLeafDim + kz), laneAt);
+            _mm512_mask_storeu_epi32(atOut + n, __mmask16(0xff), _mm512_maskz_compress_epi32(keep, at));  // (a cast to __m256i trips GCC 12's -Wmaybe-uninitialized)
+            n += __builtin_popcount(keep);
+        }
+    }
+    b.n = n;
+}
+#endif
+
+void gatherCandidates(const CandidateRows& r, VdbKernel kernel, CandidateBatch& b) {
+#ifdef DGV_VDB_WIDE_KERNELS
+    if (kernel == VdbKernel::Avx512) return gatherCandidatesAvx512(r, b);
+#else
+    (void)kernel;
+#endif
+    gatherCandidatesScalar(r, b);
+}
 
 /// The widest kernel that `asked` allows and the CPU runs.
 VdbKernel resolveKernel(VdbKernel asked) {
@@ -364,14 +504,16 @@ VdbKernel resolveKernel(VdbKernel asked) {
     return VdbKernel::Sse2;
 }
 
-void newtonBatch(const CellMap& m, double detMin, double hv, VdbKernel kernel, CandidateBatch& b) {
+/// Solves the batch (see DGV_NEWTON_BATCH_BODY); true if some lane is left to solveCell or
+/// unresolved (state <= 0: weight 0 in cov, vel, rest, con).
+bool newtonBatch(const CellMap& m, double detMin, double hv, VdbKernel kernel, CandidateBatch& b) {
 #ifdef DGV_VDB_WIDE_KERNELS
     if (kernel == VdbKernel::Avx512) return newtonBatchAvx512(m, detMin, hv, b);
     if (kernel == VdbKernel::Avx2) return newtonBatchAvx2(m, detMin, hv, b);
 #else
     (void)kernel;
 #endif
-    newtonBatchGeneric(m, detMin, hv, b);
+    return newtonBatchGeneric(m, detMin, hv, b);
 }
 
 struct ObjectRefs {
@@ -587,11 +729,13 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         const int by = int(std::int64_t((k >> 21) & ((1u << 21) - 1)) - kOff);
         const int bz = int(std::int64_t(k >> 42) - kOff);
         const Eigen::Vector3i base(bx * kLeafDim, by * kLeafDim, bz * kLeafDim);
-        std::array<Real, kLeafVoxels> cov{};
-        std::array<Vec3, kLeafVoxels> vel, rest;
-        std::array<Real, kLeafVoxels> con{};
-        for (auto& x : vel) x.setZero();
-        for (auto& x : rest) x.setZero();
+        // the block's sums, as plain arrays cleared at once
+        thread_local BlockSums sums;
+        std::memset(&sums, 0, sizeof sums);
+        double* const cov = sums.cov;
+        double(*const vel)[3] = sums.vel;
+        double(*const rest)[3] = sums.rest;
+        double* const con = sums.con;
         Index unresolved = 0, slowSolves = 0, candidates = 0;
         // one batch per thread, not per block: a 64-byte-aligned allocation per block fragments
         // glibc's heap (peak RSS 1.4 GB instead of 0.46 GB in the benchmark)
@@ -600,48 +744,11 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             const CellMap& m = maps[static_cast<std::size_t>(pairs[e].second)];
             Eigen::Vector3i lo = m.lo.cwiseMax(base), hi = m.hi.cwiseMin(base + Eigen::Vector3i::Constant(kLeafDim - 1));
             if ((lo.array() > hi.array()).any()) continue;
-            // candidates: per row, the voxels whose affine guess s(i) = s_row + (i - lo) step lies
-            // within the margin, -margin <= s_a(i) <= 1 + margin on every axis: on an axis with
-            // step_a != 0 that is i - lo in [(A_a - s_a) / step_a, (B_a - s_a) / step_a]
-            const Vec3 step = m.centreInverse.col(0) * vs;  // ds per +1 in i, j, k
-            const Vec3 stepJ = m.centreInverse.col(1) * vs, stepK = m.centreInverse.col(2) * vs;
-            const Vec3 sLo = Vec3::Constant(0.5) + m.centreInverse * (origin + vs * lo.cast<Real>() - m.centre);
-            Vec3 A, B, inv;
-            bool flat[3];
-            for (int a = 0; a < 3; ++a) {
-                flat[a] = !(std::abs(step[a]) > 1e-300);
-                inv[a] = flat[a] ? 0 : 1 / step[a];
-                A[a] = step[a] > 0 ? -m.margin[a] : 1 + m.margin[a];
-                B[a] = step[a] > 0 ? 1 + m.margin[a] : -m.margin[a];
-            }
             const Real detMin = 1e-12 * m.h * m.h * m.h;
-            batch.n = 0;
-            for (int kz = lo[2]; kz <= hi[2]; ++kz)
-                for (int jy = lo[1]; jy <= hi[1]; ++jy) {
-                    const Vec3 s0 = sLo + Real(jy - lo[1]) * stepJ + Real(kz - lo[2]) * stepK;
-                    Real tmin = 0, tmax = hi[0] - lo[0];
-                    for (int a = 0; a < 3; ++a) {
-                        if (flat[a]) {
-                            if (s0[a] < -m.margin[a] || s0[a] > 1 + m.margin[a]) tmax = -1;
-                        } else {
-                            tmin = std::max(tmin, (A[a] - s0[a]) * inv[a]);
-                            tmax = std::min(tmax, (B[a] - s0[a]) * inv[a]);
-                        }
-                    }
-                    if (!(tmin <= tmax)) continue;
-                    // 0 <= tmin <= tmax <= 7: ceil and floor by truncation (std::ceil is a call
-                    // without SSE4.1)
-                    int t0 = static_cast<int>(tmin);
-                    t0 += Real(t0) < tmin ? 1 : 0;
-                    const int i0 = lo[0] + t0, i1 = lo[0] + static_cast<int>(tmax);
-                    for (int ix = i0; ix <= i1; ++ix) {
-                        const int n = batch.n++;
-                        batch.p[0][n] = origin[0] + vs * ix;
-                        batch.p[1][n] = origin[1] + vs * jy;
-                        batch.p[2][n] = origin[2] + vs * kz;
-                        batch.at[n] = (ix - base[0]) * kLeafDim * kLeafDim + (jy - base[1]) * kLeafDim + (kz - base[2]);
-                    }
-                }
+            const CandidateRows rows{m.centreInverse.col(0) * vs, m.centreInverse.col(1) * vs, m.centreInverse.col(2) * vs,
+                                     Vec3::Constant(0.5) + m.centreInverse * (origin + vs * lo.cast<Real>() - m.centre),
+                                     m.margin, lo, hi, base, origin, vs};
+            gatherCandidates(rows, kernel, batch);
             if (batch.n == 0) continue;
             const int real = batch.n;
             while (batch.n % kLanes) {  // pad with copies of the last candidate
@@ -649,18 +756,19 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                 ++batch.n;
             }
             candidates += real;
-            newtonBatch(m, detMin, hv, kernel, batch);
+            const bool pending = newtonBatch(m, detMin, hv, kernel, batch);
+            // every lane: those with weight 0 add +-0 to sums that are never -0, i.e. nothing
             for (int e2 = 0; e2 < real; ++e2) {
                 const std::size_t at = static_cast<std::size_t>(batch.at[e2]);
-                if (batch.state[e2] > 0) {  // converged in the batch: values are ready
-                    const Real c = batch.cov[e2];
-                    if (!(c > 1e-9)) continue;
-                    cov[at] += c;
-                    vel[at] += Vec3(batch.vel[0][e2], batch.vel[1][e2], batch.vel[2][e2]);
-                    rest[at] += Vec3(batch.rest[0][e2], batch.rest[1][e2], batch.rest[2][e2]);
-                    con[at] += batch.con[e2];
-                    continue;
-                }
+                cov[at] += batch.cov[e2];
+                for (int q = 0; q < 3; ++q) vel[at][q] += batch.vel[q][e2];
+                for (int q = 0; q < 3; ++q) rest[at][q] += batch.rest[q][e2];
+                con[at] += batch.con[e2];
+            }
+            if (!pending) continue;
+            for (int e2 = 0; e2 < real; ++e2) {
+                if (batch.state[e2] > 0) continue;  // added above
+                const std::size_t at = static_cast<std::size_t>(batch.at[e2]);
                 if (batch.state[e2] < 0) {
                     ++unresolved;
                     continue;
@@ -677,9 +785,11 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                 const Real c = coverage(s, sol.g2, hv);
                 if (!(c > 1e-9)) continue;
                 const Vec3 sc = s.cwiseMax(Vec3::Zero()).cwiseMin(Vec3::Ones());  // keeps contact in 0..1
+                const Vec3 cv = c * evalVec(m.v, s);  // extrapolated by < 1/2 voxel outside
+                const Vec3 cr = c * (m.restLowest + m.h * s);
                 cov[at] += c;
-                vel[at] += c * evalVec(m.v, s);  // extrapolated by < 1/2 voxel outside
-                rest[at] += c * (m.restLowest + m.h * s);
+                for (int q = 0; q < 3; ++q) vel[at][q] += cv[q];
+                for (int q = 0; q < 3; ++q) rest[at][q] += cr[q];
                 con[at] += c * evalMonomials(m.k, sc);
             }
         }
@@ -687,26 +797,38 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         o.unresolved = unresolved;
         o.slowSolves = slowSolves;
         o.candidates = candidates;
+        // the leaves, written whole: active voxels their means, the others the background 0
+        openvdb::util::NodeMask<3> mask;
+        for (int at = 0; at < kLeafVoxels; ++at)
+            if (cov[at] > 0) mask.setOn(static_cast<openvdb::Index>(at));
+        o.active = mask.countOn();
+        if (o.active == 0) return;
         const openvdb::Coord origin3(base[0], base[1], base[2]);
+        auto newLeaf = [&](auto* type) {  // values uninitialised: every one is written below
+            using LeafT = std::remove_pointer_t<decltype(type)>;
+            auto leaf = std::make_unique<LeafT>(openvdb::PartialCreate(), origin3, typename LeafT::ValueType(0.f), false);
+            leaf->setValueMask(mask);
+            return leaf;
+        };
+        o.vel = newLeaf(static_cast<VecLeaf*>(nullptr));
+        o.rest = newLeaf(static_cast<VecLeaf*>(nullptr));
+        openvdb::Vec3s* const velOut = o.vel->buffer().data();  // allocates
+        openvdb::Vec3s* const restOut = o.rest->buffer().data();
         std::array<float, kLeafVoxels> dv, cv;
-        for (std::size_t at = 0; at < static_cast<std::size_t>(kLeafVoxels); ++at) {
-            if (!(cov[at] > 0)) continue;
-            if (!o.vel) {
-                o.vel = std::make_unique<VecLeaf>(origin3, openvdb::Vec3s(0.f), false);
-                o.rest = std::make_unique<VecLeaf>(origin3, openvdb::Vec3s(0.f), false);
+        for (int at = 0; at < kLeafVoxels; ++at) {
+            if (!(cov[at] > 0)) {
+                velOut[at] = restOut[at] = openvdb::Vec3s(0.f);
+                dv[at] = cv[at] = 0.f;
+                continue;
             }
             const Real w = 1 / cov[at];
-            const Vec3 v = vel[at] * w, r = rest[at] * w;
             const Real d = std::min(Real(1), cov[at]);
-            const openvdb::Index off = static_cast<openvdb::Index>(at);
             dv[at] = static_cast<float>(d);
             cv[at] = static_cast<float>(std::min(Real(1), con[at] * w));
-            o.vel->setValueOn(off, openvdb::Vec3s(float(v.x()), float(v.y()), float(v.z())));
-            o.rest->setValueOn(off, openvdb::Vec3s(float(r.x()), float(r.y()), float(r.z())));
-            ++o.active;
+            velOut[at] = openvdb::Vec3s(float(vel[at][0] * w), float(vel[at][1] * w), float(vel[at][2] * w));
+            restOut[at] = openvdb::Vec3s(float(rest[at][0] * w), float(rest[at][1] * w), float(rest[at][2] * w));
             o.densitySum += d;
         }
-        if (!o.vel) return;
         // density and contact: a whole block of one value is an active tile (the inside of an
         // object: density 1, contact 0), as OpenVDB's prune would make it
         const bool full = o.active == kLeafVoxels;
@@ -714,8 +836,8 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             return full && std::all_of(x.begin(), x.end(), [&](float y) { return y == x[0]; });
         };
         auto leafOf = [&](const std::array<float, kLeafVoxels>& x) {
-            auto leaf = std::make_unique<FloatLeaf>(origin3, 0.f, false);
-            for (auto it = o.vel->cbeginValueOn(); it; ++it) leaf->setValueOn(it.pos(), x[it.pos()]);
+            auto leaf = newLeaf(static_cast<FloatLeaf*>(nullptr));
+            std::memcpy(leaf->buffer().data(), x.data(), sizeof(float) * kLeafVoxels);
             return leaf;
         };
         if (uniform(dv)) o.densityTile = dv[0]; else o.density = leafOf(dv);
