@@ -29,14 +29,21 @@
 #include <openvdb/tools/ValueTransformer.h>
 
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #if defined(__SSE2__)
 #include <immintrin.h>
 #endif
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -47,6 +54,8 @@
 #include <set>
 #include <numeric>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <utility>
 
 #ifndef DGV_VERSION_STRING
@@ -923,83 +932,128 @@ std::size_t leafHeaderBytes(std::int8_t meta) {
     return n;
 }
 
-/// Serialises the leaves of `grids` (float and vec3s grids) in parallel, each leaf by OpenVDB's
-/// own LeafNode::writeBuffers into a per-task string, so the bytes are the library's; the
-/// compressed sizes for the DelayedLoadMetadata fall out of the same pass (OpenVDB 10's
-/// Archive::writeGrid compresses every leaf twice: once to size it, once to write it).
-std::vector<SerialisedLeaves> serialiseLeaves(const openvdb::GridCPtrVec& grids, std::uint32_t compression) {
-    constexpr std::size_t kRun = 32;  // leaves per task
+/// The leaves of `grids` (float and vec3s grids) serialised by OpenVDB's own
+/// LeafNode::writeBuffers, 32 leaves a task, each task into a string of its own, so the bytes are
+/// the library's; the compressed sizes for the DelayedLoadMetadata fall out of the same pass
+/// (OpenVDB 10's Archive::writeGrid compresses every leaf twice: once to size it, once to write
+/// it). Tasks are numbered grid by grid in file order; run(k) does task k.
+class LeafSerialiser {
+public:
+    LeafSerialiser(const openvdb::GridCPtrVec& grids, std::uint32_t compression) : out_(grids.size()), writers_(grids.size()), tasksOf_(grids.size(), 0) {
+        for (std::size_t g = 0; g < grids.size(); ++g) {
+            auto setUp = [&](const auto& grid) {
+                using GridT = std::decay_t<decltype(grid)>;
+                using LeafT = typename GridT::TreeType::LeafNodeType;
+                using ValueT = typename GridT::ValueType;
+                std::vector<const LeafT*> leaves;
+                leaves.reserve(grid.tree().leafCount());
+                for (auto it = grid.tree().cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+                SerialisedLeaves& o = out_[g];
+                o.maskMeta.resize(leaves.size());
+                o.compressedSize.resize(leaves.size());
+                for (std::size_t i = 0; i < leaves.size(); i += kRun) tasks_.push_back({g, i, std::min(leaves.size(), i + kRun)});
+                tasksOf_[g] = (leaves.size() + kRun - 1) / kRun;
+                o.runs.resize(tasksOf_[g]);
+                const bool toHalf = grid.saveFloatAsHalf();
+                const ValueT* background = &grid.tree().background();
+                writers_[g] = [&o, leaves = std::move(leaves), toHalf, background, compression](const Task& t, std::string& bytes) {
+                    StringSink sink(bytes);
+                    std::ostream os(&sink);
+                    openvdb::io::setDataCompression(os, compression);
+                    openvdb::io::setGridBackgroundValuePtr(os, background);
+                    for (std::size_t i = t.first; i < t.last; ++i) {
+                        const LeafT& leaf = *leaves[i];
+                        const std::size_t start = bytes.size();
+                        leaf.writeBuffers(os, toHalf);
+                        const std::int8_t meta = static_cast<std::int8_t>(bytes[start + kLeafMaskBytes]);  // after the mask
+                        o.maskMeta[i] = meta;
+                        if (leaf.onVoxelCount() > 0) {
+                            o.compressedSize[i] = static_cast<std::int64_t>(bytes.size() - start - leafHeaderBytes<ValueT>(meta));
+                        } else {  // no active value: the size function's own corner cases
+                            o.compressedSize[i] = static_cast<std::int64_t>(openvdb::io::writeCompressedValuesSize(
+                                                      leaf.buffer().data(), LeafT::SIZE, leaf.valueMask(), std::uint8_t(meta), toHalf, compression)) + 8;
+                        }
+                    }
+                    if (!os) throw RuntimeError("serialising a VDB leaf buffer failed");
+                };
+            };
+            if (auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(grids[g])) setUp(*f);
+            else if (auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(grids[g])) setUp(*v);
+            else throw std::logic_error("vdb_cache: the parallel writer handles float and vec3s grids only");
+        }
+    }
+    std::size_t tasks() const { return tasks_.size(); }
+    std::size_t gridOf(std::size_t k) const { return tasks_[k].grid; }
+    std::size_t tasksOf(std::size_t g) const { return tasksOf_[g]; }
+    void run(std::size_t k) {
+        const Task& t = tasks_[k];
+        writers_[t.grid](t, out_[t.grid].runs[t.first / kRun]);
+    }
+    SerialisedLeaves& grid(std::size_t g) { return out_[g]; }
+
+private:
+    static constexpr std::size_t kRun = 32;  // leaves per task
     struct Task {
         std::size_t grid, first, last;
     };
-    std::vector<SerialisedLeaves> out(grids.size());
-    std::vector<Task> tasks;
-    std::vector<std::function<void(const Task&, std::string&)>> writers(grids.size());
-    for (std::size_t g = 0; g < grids.size(); ++g) {
-        auto setUp = [&](const auto& grid) {
-            using GridT = std::decay_t<decltype(grid)>;
-            using LeafT = typename GridT::TreeType::LeafNodeType;
-            using ValueT = typename GridT::ValueType;
-            std::vector<const LeafT*> leaves;
-            leaves.reserve(grid.tree().leafCount());
-            for (auto it = grid.tree().cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
-            SerialisedLeaves& o = out[g];
-            o.maskMeta.resize(leaves.size());
-            o.compressedSize.resize(leaves.size());
-            for (std::size_t i = 0; i < leaves.size(); i += kRun) tasks.push_back({g, i, std::min(leaves.size(), i + kRun)});
-            o.runs.resize((leaves.size() + kRun - 1) / kRun);
-            const bool toHalf = grid.saveFloatAsHalf();
-            const ValueT* background = &grid.tree().background();
-            writers[g] = [&o, leaves = std::move(leaves), toHalf, background, compression](const Task& t, std::string& bytes) {
-                StringSink sink(bytes);
-                std::ostream os(&sink);
-                openvdb::io::setDataCompression(os, compression);
-                openvdb::io::setGridBackgroundValuePtr(os, background);
-                for (std::size_t i = t.first; i < t.last; ++i) {
-                    const LeafT& leaf = *leaves[i];
-                    const std::size_t start = bytes.size();
-                    leaf.writeBuffers(os, toHalf);
-                    const std::int8_t meta = static_cast<std::int8_t>(bytes[start + kLeafMaskBytes]);  // after the mask
-                    o.maskMeta[i] = meta;
-                    if (leaf.onVoxelCount() > 0) {
-                        o.compressedSize[i] = static_cast<std::int64_t>(bytes.size() - start - leafHeaderBytes<ValueT>(meta));
-                    } else {  // no active value: the size function's own corner cases
-                        o.compressedSize[i] = static_cast<std::int64_t>(openvdb::io::writeCompressedValuesSize(
-                                                  leaf.buffer().data(), LeafT::SIZE, leaf.valueMask(), std::uint8_t(meta), toHalf, compression)) + 8;
-                    }
-                }
-                if (!os) throw RuntimeError("serialising a VDB leaf buffer failed");
-            };
-        };
-        if (auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(grids[g])) setUp(*f);
-        else if (auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(grids[g])) setUp(*v);
-        else throw std::logic_error("vdb_cache: the parallel writer handles float and vec3s grids only");
+    std::vector<SerialisedLeaves> out_;
+    std::vector<Task> tasks_;
+    std::vector<std::function<void(const Task&, std::string&)>> writers_;
+    std::vector<std::size_t> tasksOf_;
+};
+
+/// write(2) of all n bytes; 0 or the errno value.
+int writeAll(int fd, const char* p, std::size_t n) {
+    while (n > 0) {
+        const ssize_t k = ::write(fd, p, n);
+        if (k < 0) {
+            if (errno == EINTR) continue;
+            return errno;
+        }
+        if (k == 0) return EIO;
+        p += k;
+        n -= static_cast<std::size_t>(k);
     }
-    parallelFor(static_cast<Index>(tasks.size()), [&](Index k) {
-        const Task& t = tasks[static_cast<std::size_t>(k)];
-        writers[t.grid](t, out[t.grid].runs[t.first / kRun]);
-    }, 1);
-    return out;
+    return 0;
 }
 
 /// Writes what openvdb::io::Archive::write(os, grids, seekable = true, meta) writes, byte for byte
-/// (tested, the random file UUID aside), with the leaf buffers serialised in parallel once
-/// (serialiseLeaves). Also checks the stream's state, which io::File::write ignores (on a full disk
-/// it returns normally and leaves a truncated file).
+/// (tested, the random file UUID aside), either by OpenVDB itself (`parallel` false) or streamed:
+/// the leaves are serialised by TBB's threads (LeafSerialiser) in file order while a writer
+/// thread writes each grid as soon as its leaves are done, and asks the kernel to start writing
+/// back every 8 MiB (sync_file_range), so the compression, the copy into the page cache and the
+/// device writes overlap and the fsync at the end has little left to wait for. Checks every
+/// write, which io::File::write does not (on a full disk it returns normally and leaves a
+/// truncated file), and fsyncs the file.
 class CheckedArchive : public openvdb::io::Archive {
 public:
     void writeFile(const fs::path& file, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta,
                    bool parallel, VdbStageSeconds& stages) const {
         const auto t = Clock::now();
-        std::ofstream os(file, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
-        if (!os) throw RuntimeError("cannot open " + file.string() + " for writing");
-        if (parallel) writeArchive(os, grids, meta);
-        else openvdb::io::Archive::write(os, grids, /*seekable=*/true, meta);
-        os.flush();
-        const bool ok = os.good();
-        const std::streamoff end = ok ? std::streamoff(os.tellp()) : -1;
-        os.close();
-        if (!ok || os.fail()) throw RuntimeError("the write failed (disk full?)");
+        std::streamoff end = -1;
+        if (parallel) {
+            const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+            if (fd < 0) throw RuntimeError("cannot open " + file.string() + " for writing: " + std::strerror(errno));
+            int err = 0;
+            try {
+                end = writeStreamed(fd, grids, meta);
+            } catch (...) {
+                ::close(fd);
+                throw;
+            }
+            if (::fsync(fd) != 0) err = errno;
+            if (::close(fd) != 0 && err == 0) err = errno;
+            if (err != 0) throw RuntimeError(std::string("the write failed (disk full?): ") + std::strerror(err));
+        } else {
+            std::ofstream os(file, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
+            if (!os) throw RuntimeError("cannot open " + file.string() + " for writing");
+            openvdb::io::Archive::write(os, grids, /*seekable=*/true, meta);
+            os.flush();
+            const bool ok = os.good();
+            end = ok ? std::streamoff(os.tellp()) : -1;
+            os.close();
+            if (!ok || os.fail()) throw RuntimeError("the write failed (disk full?)");
+        }
         std::error_code ec;
         const std::uintmax_t size = fs::file_size(file, ec);
         if (ec || end < 0 || size != std::uintmax_t(end))
@@ -1009,9 +1063,11 @@ public:
 
 private:
     // Archive::write and Archive::writeGrid of OpenVDB 10, for grids with unique, non-empty names
-    // and trees of their own (no instancing), with the leaf buffers and the DelayedLoadMetadata
-    // from serialiseLeaves.
-    void writeArchive(std::ostream& os, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta) const {
+    // and trees of their own (no instancing). OpenVDB's own functions write the headers,
+    // metadata, transforms and topologies into memory (`hs`); the grid descriptor's stream
+    // positions, which Archive::writeGrid patches by seeking back, are computed instead.
+    // Returns the file's size.
+    std::streamoff writeStreamed(int fd, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta) const {
         namespace io = openvdb::io;
         const std::uint32_t c = compression();
         if (c & io::COMPRESS_ZIP) throw std::logic_error("vdb_cache: the parallel writer does not do ZIP");
@@ -1020,60 +1076,134 @@ private:
         for (const auto& g : grids)
             if (!g || g->getName().empty() || !names.insert(g->getName()).second || !trees.insert(&g->baseTree()).second)
                 throw std::logic_error("vdb_cache: the parallel writer needs distinct named grids with trees of their own");
-        const std::vector<SerialisedLeaves> leaves = serialiseLeaves(grids, c);
+        LeafSerialiser leaves(grids, c);
 
-        io::StreamMetadata::Ptr fileMeta(new io::StreamMetadata);
-        io::setStreamMetadataPtr(os, fileMeta, /*transfer=*/false);
-        io::setDataCompression(os, c);
-        io::setWriteGridStatsMetadata(os, isGridStatsMetadataEnabled());
-        writeHeader(os, /*seekable=*/true);
-        meta.writeMeta(os);
-        const std::int32_t count = static_cast<std::int32_t>(grids.size());
-        os.write(reinterpret_cast<const char*>(&count), sizeof count);
-        for (std::size_t g = 0; g < grids.size(); ++g) {
-            const openvdb::GridBase::ConstPtr& grid = grids[g];
-            io::GridDescriptor gd(grid->getName(), grid->type(), grid->saveFloatAsHalf());
-            io::StreamMetadata::Ptr gridMeta(new io::StreamMetadata(*fileMeta));
-            gridMeta->setHalfFloat(grid->saveFloatAsHalf());
-            gridMeta->gridMetadata() = static_cast<const openvdb::MetaMap&>(*grid);
-            io::setStreamMetadataPtr(os, gridMeta, /*transfer=*/false);
+        // the writer thread's state; the grids it may write are those with no task left
+        std::mutex mutex;
+        std::condition_variable ready;
+        std::vector<std::size_t> left(grids.size());
+        for (std::size_t g = 0; g < grids.size(); ++g) left[g] = leaves.tasksOf(g);
+        bool stop = false;             // a serialising task failed
+        std::atomic<bool> failed{false};  // the writer failed: serialising may stop
+        std::exception_ptr writerError;
+        std::streamoff size = 0;
 
-            gd.writeHeader(os);
-            const std::int64_t offsetPos = std::int64_t(os.tellp());
-            gd.writeStreamPos(os);
-            gd.setGridPos(os.tellp());
-            setGridCompression(os, *grid);
+        auto writer = [&] {
+            try {
+                std::int64_t offset = 0, synced = 0;
+                std::string bytes;
+                StringSink sink(bytes);
+                std::ostream hs(&sink);
+                auto put = [&](const char* p, std::size_t n) {
+                    if (int err = writeAll(fd, p, n)) throw RuntimeError(std::string("the write failed (disk full?): ") + std::strerror(err));
+                    offset += static_cast<std::int64_t>(n);
+                    constexpr std::int64_t kSyncChunk = std::int64_t(8) << 20;
+                    if (offset - synced >= kSyncChunk) {  // a hint: errors come back from fsync
+                        ::sync_file_range(fd, synced, offset - synced, SYNC_FILE_RANGE_WRITE);
+                        synced = offset;
+                    }
+                };
+                io::StreamMetadata::Ptr fileMeta(new io::StreamMetadata);
+                io::setStreamMetadataPtr(hs, fileMeta, /*transfer=*/false);
+                io::setDataCompression(hs, c);
+                io::setWriteGridStatsMetadata(hs, isGridStatsMetadataEnabled());
+                writeHeader(hs, /*seekable=*/true);
+                meta.writeMeta(hs);
+                const std::int32_t count = static_cast<std::int32_t>(grids.size());
+                hs.write(reinterpret_cast<const char*>(&count), sizeof count);
+                for (std::size_t g = 0; g < grids.size(); ++g) {
+                    {
+                        std::unique_lock<std::mutex> lock(mutex);
+                        ready.wait(lock, [&] { return left[g] == 0 || stop; });
+                        if (stop) return;
+                    }
+                    const openvdb::GridBase::ConstPtr& grid = grids[g];
+                    SerialisedLeaves& l = leaves.grid(g);
+                    io::GridDescriptor gd(grid->getName(), grid->type(), grid->saveFloatAsHalf());
+                    io::StreamMetadata::Ptr gridMeta(new io::StreamMetadata(*fileMeta));
+                    gridMeta->setHalfFloat(grid->saveFloatAsHalf());
+                    gridMeta->gridMetadata() = static_cast<const openvdb::MetaMap&>(*grid);
+                    io::setStreamMetadataPtr(hs, gridMeta, /*transfer=*/false);
 
-            const SerialisedLeaves& l = leaves[g];
-            io::DelayedLoadMetadata delayed;
-            if (!l.maskMeta.empty()) {
-                delayed.resizeMask(l.maskMeta.size());
-                delayed.resizeCompressedSize(l.maskMeta.size());
-                for (std::size_t i = 0; i < l.maskMeta.size(); ++i) {
-                    delayed.setMask(i, l.maskMeta[i]);
-                    delayed.setCompressedSize(i, l.compressedSize[i]);
+                    gd.writeHeader(hs);
+                    const std::size_t posAt = bytes.size();  // the stream positions go here
+                    gd.writeStreamPos(hs);
+                    const std::size_t gridAt = bytes.size();
+                    setGridCompression(hs, *grid);
+                    io::DelayedLoadMetadata delayed;
+                    if (!l.maskMeta.empty()) {
+                        delayed.resizeMask(l.maskMeta.size());
+                        delayed.resizeCompressedSize(l.maskMeta.size());
+                        for (std::size_t i = 0; i < l.maskMeta.size(); ++i) {
+                            delayed.setMask(i, l.maskMeta[i]);
+                            delayed.setCompressedSize(i, l.compressedSize[i]);
+                        }
+                    }
+                    const auto copy = openvdb::ConstPtrCast<openvdb::GridBase>(grid->copyGrid());  // shallow
+                    copy->insertMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD, delayed);
+                    if (io::getWriteGridStatsMetadata(hs)) {
+                        copy->addStatsMetadata();
+                        copy->insertMeta(openvdb::GridBase::META_FILE_COMPRESSION,
+                                         openvdb::StringMetadata(io::compressionToString(io::getDataCompression(hs))));
+                    }
+                    copy->writeMeta(hs);
+                    grid->writeTransform(hs);
+                    grid->writeTopology(hs);
+                    if (!hs) throw RuntimeError("serialising a VDB grid header failed");
+                    std::int64_t runBytes = 0;
+                    for (const std::string& run : l.runs) runBytes += static_cast<std::int64_t>(run.size());
+                    const std::int64_t gridPos = offset + static_cast<std::int64_t>(gridAt);
+                    const std::int64_t blockPos = offset + static_cast<std::int64_t>(bytes.size());
+                    gd.setGridPos(gridPos);
+                    gd.setBlockPos(blockPos);
+                    gd.setEndPos(blockPos + runBytes);
+                    std::string pos;
+                    {
+                        StringSink posSink(pos);
+                        std::ostream ps(&posSink);
+                        gd.writeStreamPos(ps);
+                    }
+                    if (pos.size() != gridAt - posAt) throw std::logic_error("vdb_cache: unexpected grid stream-position size");
+                    bytes.replace(posAt, pos.size(), pos);
+                    put(bytes.data(), bytes.size());
+                    bytes.clear();
+                    for (std::string& run : l.runs) {
+                        put(run.data(), run.size());
+                        std::string().swap(run);  // written: free it
+                    }
+                    io::setStreamMetadataPtr(hs, fileMeta, /*transfer=*/false);
+                    io::setDataCompression(hs, c);
                 }
+                size = offset;
+            } catch (...) {
+                writerError = std::current_exception();
+                failed = true;
             }
-            const auto copy = openvdb::ConstPtrCast<openvdb::GridBase>(grid->copyGrid());  // shallow
-            copy->insertMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD, delayed);
-            if (io::getWriteGridStatsMetadata(os)) {
-                copy->addStatsMetadata();
-                copy->insertMeta(openvdb::GridBase::META_FILE_COMPRESSION,
-                                 openvdb::StringMetadata(io::compressionToString(io::getDataCompression(os))));
-            }
-            copy->writeMeta(os);
-            grid->writeTransform(os);
-            grid->writeTopology(os);
-            gd.setBlockPos(os.tellp());
-            for (const std::string& run : l.runs) os.write(run.data(), static_cast<std::streamsize>(run.size()));
-            gd.setEndPos(os.tellp());
-            os.seekp(offsetPos, std::ios_base::beg);
-            gd.writeStreamPos(os);
-            gd.seekToEnd(os);
+        };
 
-            io::setStreamMetadataPtr(os, fileMeta, /*transfer=*/false);
-            io::setDataCompression(os, c);
+        std::thread writerThread(writer);
+        std::exception_ptr serialiseError;
+        try {
+            // every thread takes the next task in file order, so grids finish roughly in order
+            std::atomic<std::size_t> next{0};
+            const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
+            tbb::parallel_for(tbb::blocked_range<int>(0, threads, 1), [&](const tbb::blocked_range<int>&) {
+                for (std::size_t k; !failed && (k = next++) < leaves.tasks();) {
+                    leaves.run(k);
+                    std::lock_guard<std::mutex> lock(mutex);
+                    if (--left[leaves.gridOf(k)] == 0) ready.notify_one();
+                }
+            }, tbb::simple_partitioner());
+        } catch (...) {
+            serialiseError = std::current_exception();
+            std::lock_guard<std::mutex> lock(mutex);
+            stop = true;
+            ready.notify_one();
         }
+        writerThread.join();
+        if (serialiseError) std::rethrow_exception(serialiseError);
+        if (writerError) std::rethrow_exception(writerError);
+        return size;
     }
 };
 
