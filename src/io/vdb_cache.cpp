@@ -53,6 +53,7 @@
 #include <functional>
 #include <set>
 #include <numeric>
+#include <optional>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -1030,8 +1031,11 @@ int writeAll(int fd, const char* p, std::size_t n) {
 /// truncated file), and fsyncs the file.
 class CheckedArchive : public openvdb::io::Archive {
 public:
-    void writeFile(const fs::path& file, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta,
-                   bool parallel, VdbStageSeconds& stages) const {
+    /// Writes `grids` and then the `laterCount` grids `later()` returns, which it builds while the
+    /// first ones are written (the streamed writer; OpenVDB's builds them first).
+    void writeFile(const fs::path& file, const openvdb::GridCPtrVec& grids, std::size_t laterCount,
+                   const std::function<openvdb::GridCPtrVec()>& later, const openvdb::MetaMap& meta, bool parallel,
+                   VdbStageSeconds& stages) const {
         const auto t = Clock::now();
         std::streamoff end = -1;
         if (parallel) {
@@ -1039,7 +1043,7 @@ public:
             if (fd < 0) throw RuntimeError("cannot open " + file.string() + " for writing: " + std::strerror(errno));
             int err = 0;
             try {
-                end = writeStreamed(fd, grids, meta);
+                end = writeStreamed(fd, grids, laterCount, later, meta);
             } catch (...) {
                 ::close(fd);
                 throw;
@@ -1050,7 +1054,9 @@ public:
         } else {
             std::ofstream os(file, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
             if (!os) throw RuntimeError("cannot open " + file.string() + " for writing");
-            openvdb::io::Archive::write(os, grids, /*seekable=*/true, meta);
+            openvdb::GridCPtrVec all = grids;
+            for (const auto& g : later()) all.push_back(g);
+            openvdb::io::Archive::write(os, all, /*seekable=*/true, meta);
             os.flush();
             const bool ok = os.good();
             end = ok ? std::streamoff(os.tellp()) : -1;
@@ -1070,23 +1076,36 @@ private:
     // metadata, transforms and topologies into memory (`hs`); the grid descriptor's stream
     // positions, which Archive::writeGrid patches by seeking back, are computed instead.
     // Returns the file's size.
-    std::streamoff writeStreamed(int fd, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta) const {
+    std::streamoff writeStreamed(int fd, const openvdb::GridCPtrVec& first, std::size_t laterCount,
+                                 const std::function<openvdb::GridCPtrVec()>& later, const openvdb::MetaMap& meta) const {
         namespace io = openvdb::io;
         const std::uint32_t c = compression();
         if (c & io::COMPRESS_ZIP) throw std::logic_error("vdb_cache: the parallel writer does not do ZIP");
         std::set<std::string> names;
         std::set<const openvdb::TreeBase*> trees;
-        for (const auto& g : grids)
-            if (!g || g->getName().empty() || !names.insert(g->getName()).second || !trees.insert(&g->baseTree()).second)
-                throw std::logic_error("vdb_cache: the parallel writer needs distinct named grids with trees of their own");
-        LeafSerialiser leaves(grids, c);
+        auto check = [&](const openvdb::GridCPtrVec& gs) {
+            for (const auto& g : gs)
+                if (!g || g->getName().empty() || !names.insert(g->getName()).second || !trees.insert(&g->baseTree()).second)
+                    throw std::logic_error("vdb_cache: the parallel writer needs distinct named grids with trees of their own");
+        };
+        check(first);
+        const std::size_t total = first.size() + laterCount;
+        std::optional<LeafSerialiser> firstLeaves(std::in_place, first, c), laterLeaves;
 
-        // the writer thread's state; the grids it may write are those with no task left
+        // the writer thread's state, under `mutex`: it may write grid g once left[g] is 0; the
+        // later grids and their leaves are filled in before their left[] counts are set
         std::mutex mutex;
         std::condition_variable ready;
-        std::vector<std::size_t> left(grids.size());
-        for (std::size_t g = 0; g < grids.size(); ++g) left[g] = leaves.tasksOf(g);
-        bool stop = false;             // a serialising task failed
+        constexpr std::size_t kNotYet = std::numeric_limits<std::size_t>::max();
+        std::vector<std::size_t> left(total, kNotYet);
+        openvdb::GridCPtrVec grids(total);
+        std::vector<SerialisedLeaves*> leavesOf(total, nullptr);
+        for (std::size_t g = 0; g < first.size(); ++g) {
+            grids[g] = first[g];
+            left[g] = firstLeaves->tasksOf(g);
+            leavesOf[g] = &firstLeaves->grid(g);
+        }
+        bool stop = false;                // serialising failed
         std::atomic<bool> failed{false};  // the writer failed: serialising may stop
         std::exception_ptr writerError;
         std::streamoff size = 0;
@@ -1112,16 +1131,16 @@ private:
                 io::setWriteGridStatsMetadata(hs, isGridStatsMetadataEnabled());
                 writeHeader(hs, /*seekable=*/true);
                 meta.writeMeta(hs);
-                const std::int32_t count = static_cast<std::int32_t>(grids.size());
+                const std::int32_t count = static_cast<std::int32_t>(total);
                 hs.write(reinterpret_cast<const char*>(&count), sizeof count);
-                for (std::size_t g = 0; g < grids.size(); ++g) {
+                for (std::size_t g = 0; g < total; ++g) {
                     {
                         std::unique_lock<std::mutex> lock(mutex);
                         ready.wait(lock, [&] { return left[g] == 0 || stop; });
                         if (stop) return;
                     }
                     const openvdb::GridBase::ConstPtr& grid = grids[g];
-                    SerialisedLeaves& l = leaves.grid(g);
+                    SerialisedLeaves& l = *leavesOf[g];
                     io::GridDescriptor gd(grid->getName(), grid->type(), grid->saveFloatAsHalf());
                     io::StreamMetadata::Ptr gridMeta(new io::StreamMetadata(*fileMeta));
                     gridMeta->setHalfFloat(grid->saveFloatAsHalf());
@@ -1186,17 +1205,37 @@ private:
 
         std::thread writerThread(writer);
         std::exception_ptr serialiseError;
-        try {
-            // every thread takes the next task in file order, so grids finish roughly in order
+        // every thread takes the next task in file order, so grids finish roughly in order
+        auto serialise = [&](LeafSerialiser& leaves, std::size_t firstGrid) {
             std::atomic<std::size_t> next{0};
             const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
             tbb::parallel_for(tbb::blocked_range<int>(0, threads, 1), [&](const tbb::blocked_range<int>&) {
                 for (std::size_t k; !failed && (k = next++) < leaves.tasks();) {
                     leaves.run(k);
                     std::lock_guard<std::mutex> lock(mutex);
-                    if (--left[leaves.gridOf(k)] == 0) ready.notify_one();
+                    if (--left[firstGrid + leaves.gridOf(k)] == 0) ready.notify_one();
                 }
             }, tbb::simple_partitioner());
+        };
+        try {
+            serialise(*firstLeaves, 0);
+            // the later grids, built while the writer writes the first ones
+            const openvdb::GridCPtrVec more = failed ? openvdb::GridCPtrVec{} : later();
+            if (!failed) {
+                if (more.size() != laterCount) throw std::logic_error("vdb_cache: the later grids are not as many as announced");
+                check(more);
+                laterLeaves.emplace(more, c);
+                {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    for (std::size_t i = 0; i < more.size(); ++i) {
+                        grids[first.size() + i] = more[i];
+                        leavesOf[first.size() + i] = &laterLeaves->grid(i);
+                        left[first.size() + i] = laterLeaves->tasksOf(i);
+                    }
+                    ready.notify_one();  // a grid without leaves is ready at once
+                }
+                serialise(*laterLeaves, first.size());
+            }
         } catch (...) {
             serialiseError = std::current_exception();
             std::lock_guard<std::mutex> lock(mutex);
@@ -1231,6 +1270,58 @@ void verifyWritten(const fs::path& file, const std::vector<std::string>& names) 
     } catch (const std::exception& e) {
         throw RuntimeError(std::string("the written file does not read back (disk full?): ") + e.what());
     }
+}
+
+/// The suffix of an object's lattice grids: none for one object, else _<name>.
+std::string latticeSuffix(const std::vector<VdbObjectFrame>& objects, const VdbObjectFrame& f) {
+    return objects.size() == 1 ? "" : "_" + sanitise(f.name);
+}
+
+/// `position` and `volume_ratio` of every object, on the material lattice.
+struct LatticeGrids {
+    openvdb::GridPtrVec grids;
+    Real objectVolume = 0;  // sum of the deformed cell volumes
+};
+
+LatticeGrids latticeGrids(const std::vector<VdbObjectFrame>& objects, const VdbFrameInfo& info) {
+    LatticeGrids out;
+    for (const VdbObjectFrame& f : objects) {
+        const std::string suffix = latticeSuffix(objects, f);
+        const Lattice& lat = *f.lattice;
+        auto lx = latticeTransform(lat.spacing, lat.originWorld);
+        openvdb::Vec3SGrid::Ptr pos = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.f));
+        {
+            auto acc = pos->getAccessor();
+            for (Index p = 0; p < lat.size(); ++p) {
+                const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
+                const Vec3& x = (*f.positions)[static_cast<std::size_t>(p)];
+                acc.setValue(openvdb::Coord(u.x(), u.y(), u.z()), openvdb::Vec3s(float(x.x()), float(x.y()), float(x.z())));
+            }
+        }
+        pos->setTransform(lx);
+        stamp(*pos, "position" + suffix, openvdb::GRID_UNKNOWN, info);
+        pos->setVectorType(openvdb::VEC_CONTRAVARIANT_ABSOLUTE);
+        pos->insertMeta("dgv_object", openvdb::StringMetadata(f.name));
+
+        const std::vector<Real> vols = cellVolumes(*f.cells, *f.positions);
+        out.objectVolume += std::accumulate(vols.begin(), vols.end(), Real(0));
+        openvdb::FloatGrid::Ptr ratio = openvdb::FloatGrid::create(0.f);
+        {
+            auto acc = ratio->getAccessor();
+            for (Index c = 0; c < f.cells->size(); ++c) {
+                const Vec3i& u = f.cells->lowest[static_cast<std::size_t>(c)];
+                acc.setValue(openvdb::Coord(u.x(), u.y(), u.z()),
+                             float(vols[static_cast<std::size_t>(c)] / (*f.restVolumes)[static_cast<std::size_t>(c)]));
+            }
+        }
+        ratio->setTransform(lx->copy());
+        stamp(*ratio, "volume_ratio" + suffix, openvdb::GRID_UNKNOWN, info);
+        ratio->insertMeta("dgv_object", openvdb::StringMetadata(f.name));
+        ratio->insertMeta("dgv_cell_at", openvdb::StringMetadata("lowest corner"));
+        out.grids.push_back(pos);
+        out.grids.push_back(ratio);
+    }
+    return out;
 }
 
 }  // namespace
@@ -1332,45 +1423,22 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
 
     report.stages.surface = since(ts);
 
-    // ---- lattice grids ---------------------------------------------------------------------
-    ts = Clock::now();
+    // ---- lattice grids: built while the world grids are written (CheckedArchive::writeFile) -----
+    std::vector<std::string> names;
+    for (const auto& g : grids) names.push_back(g->getName());
     for (const VdbObjectFrame& f : objects) {
-        const std::string suffix = objects.size() == 1 ? "" : "_" + sanitise(f.name);
-        const Lattice& lat = *f.lattice;
-        auto lx = latticeTransform(lat.spacing, lat.originWorld);
-        openvdb::Vec3SGrid::Ptr pos = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.f));
-        {
-            auto acc = pos->getAccessor();
-            for (Index p = 0; p < lat.size(); ++p) {
-                const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
-                const Vec3& x = (*f.positions)[static_cast<std::size_t>(p)];
-                acc.setValue(openvdb::Coord(u.x(), u.y(), u.z()), openvdb::Vec3s(float(x.x()), float(x.y()), float(x.z())));
-            }
-        }
-        pos->setTransform(lx);
-        stamp(*pos, "position" + suffix, openvdb::GRID_UNKNOWN, info);
-        pos->setVectorType(openvdb::VEC_CONTRAVARIANT_ABSOLUTE);
-        pos->insertMeta("dgv_object", openvdb::StringMetadata(f.name));
-
-        const std::vector<Real> vols = cellVolumes(*f.cells, *f.positions);
-        report.objectVolume += std::accumulate(vols.begin(), vols.end(), Real(0));
-        openvdb::FloatGrid::Ptr ratio = openvdb::FloatGrid::create(0.f);
-        {
-            auto acc = ratio->getAccessor();
-            for (Index c = 0; c < f.cells->size(); ++c) {
-                const Vec3i& u = f.cells->lowest[static_cast<std::size_t>(c)];
-                acc.setValue(openvdb::Coord(u.x(), u.y(), u.z()),
-                             float(vols[static_cast<std::size_t>(c)] / (*f.restVolumes)[static_cast<std::size_t>(c)]));
-            }
-        }
-        ratio->setTransform(lx->copy());
-        stamp(*ratio, "volume_ratio" + suffix, openvdb::GRID_UNKNOWN, info);
-        ratio->insertMeta("dgv_object", openvdb::StringMetadata(f.name));
-        ratio->insertMeta("dgv_cell_at", openvdb::StringMetadata("lowest corner"));
-        grids.push_back(pos);
-        grids.push_back(ratio);
+        names.push_back("position" + latticeSuffix(objects, f));
+        names.push_back("volume_ratio" + latticeSuffix(objects, f));
     }
-    report.stages.lattice = since(ts);
+    openvdb::GridPtrVec keep;  // the lattice grids live until the file is written
+    auto later = [&]() -> openvdb::GridCPtrVec {
+        const auto tl = Clock::now();
+        LatticeGrids lattice = latticeGrids(objects, info);
+        report.objectVolume = lattice.objectVolume;
+        keep = lattice.grids;
+        report.stages.lattice = since(tl);
+        return openvdb::GridCPtrVec(lattice.grids.begin(), lattice.grids.end());
+    };
     report.resampleSeconds = since(t0);
 
     // ---- write, check, rename --------------------------------------------------------------
@@ -1383,15 +1451,12 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
     meta.insertMeta("dgv_fps", openvdb::DoubleMetadata(info.fps));
     meta.insertMeta("dgv_up_axis", openvdb::StringMetadata(info.upAxis));
     meta.insertMeta("dgv_units", openvdb::StringMetadata("m"));
-    std::vector<std::string> names;
-    for (const auto& g : grids) names.push_back(g->getName());
-
     const auto t1 = Clock::now();
     writeFileAtomically(path, [&](const fs::path& tmp) {
         CheckedArchive archive;
         archive.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
         openvdb::GridCPtrVec constGrids(grids.begin(), grids.end());
-        archive.writeFile(tmp, constGrids, meta, settings.writer == VdbWriter::Parallel, report.stages);
+        archive.writeFile(tmp, constGrids, 2 * objects.size(), later, meta, settings.writer == VdbWriter::Parallel, report.stages);
         verifyWritten(tmp, names);
     });
     report.writeSeconds = since(t1);
