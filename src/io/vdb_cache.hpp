@@ -59,6 +59,10 @@ enum class VdbKernel { Auto, Avx512, Avx2, Sse2 };
 /// core, by OpenVDB's own leaf code) or openvdb::io::Archive::write. Both write the same bytes
 /// but for the file's random UUID (tested); the choice only exists to test that.
 enum class VdbWriter { Parallel, OpenVdb };
+/// How the (leaf block, cell) pairs are grouped by block: by counting where the blocks' bounding
+/// box is at most 2^23 blocks (Auto), else by sorting (Sort, always). Both give the same bits
+/// (tested); the choice only exists to test that.
+enum class VdbBinning { Auto, Sort };
 
 struct VdbWriteSettings {
     Real worldVoxelSize = 0;     ///< world-grid voxel size; 0 = the smallest lattice spacing
@@ -67,12 +71,13 @@ struct VdbWriteSettings {
     Real surfaceHalfWidth = 3;   ///< narrow-band half width of `surface`, in voxels
     VdbKernel kernel = VdbKernel::Auto;
     VdbWriter writer = VdbWriter::Parallel;
+    VdbBinning binning = VdbBinning::Auto;
 };
 
 /// Wall-clock seconds of the stages of writeVdbFrame (`dgv bench vdb` prints them).
 struct VdbStageSeconds {
     double cells = 0;      ///< per-cell trilinear maps and voxel boxes
-    double bins = 0;       ///< sorting the (leaf block, cell) pairs
+    double bins = 0;       ///< grouping the (leaf block, cell) pairs by block
     double voxels = 0;     ///< inverting the cell maps at the voxel centres, coverage, values
     double trees = 0;      ///< the leaves into the four world grids
     double surface = 0;    ///< the `surface` level set (when asked for)

@@ -385,7 +385,7 @@ TEST_CASE("vdb_cache: vel, rest and contact values", "[io][vdb]") {
     }
 }
 
-TEST_CASE("vdb_cache: same frame, any thread count or vector kernel, identical grids", "[io][vdb]") {
+TEST_CASE("vdb_cache: same frame, any thread count, vector kernel or binning, identical grids", "[io][vdb]") {
     // A spin about the twist axis as the velocity: near the axis its values cancel, so a kernel
     // whose arithmetic differs in the last bits (measured: one with FMA contraction) changes
     // thousands of float vel values and fails here; with the affine velocity of makeFrame it
@@ -412,6 +412,13 @@ TEST_CASE("vdb_cache: same frame, any thread count or vector kernel, identical g
         narrow.kernel = kernel;
         files.push_back(dir.path() / ("kernel" + std::to_string(int(kernel)) + ".vdb"));
         (void)writeVdbFrame(files.back(), {f.object()}, VdbFrameInfo{}, narrow);
+    }
+    // and the blocks' cells sorted instead of counted
+    {
+        VdbWriteSettings sorted = s;
+        sorted.binning = VdbBinning::Sort;
+        files.push_back(dir.path() / "sorted.vdb");
+        (void)writeVdbFrame(files.back(), {f.object()}, VdbFrameInfo{}, sorted);
     }
     const auto a = byName(readAll(files[0]));
     for (std::size_t k = 1; k < files.size(); ++k) {
