@@ -802,8 +802,13 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         const int bz = int(std::int64_t(k >> 42) - kOff);
         const Eigen::Vector3i base(bx * kLeafDim, by * kLeafDim, bz * kLeafDim);
         // the block's sums, as plain arrays cleared at once
-        thread_local BlockSums sums;
-        std::memset(&sums, 0, sizeof sums);
+        // Zero: the block before cleared each voxel's sums as it read them, in the loop that
+        // writes the leaves; a block that did not get there (no active voxel, an exception)
+        // leaves them `dirty`.
+        thread_local BlockSums sums;  // zero-initialised
+        thread_local bool dirty = false;
+        if (dirty) std::memset(&sums, 0, sizeof sums);
+        dirty = true;
         double* const cov = sums.cov;
         double(*const vel)[3] = sums.vel;
         double(*const rest)[3] = sums.rest;
@@ -892,9 +897,14 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         openvdb::Vec3s* const restOut = o.rest->buffer().data();
         std::array<float, kLeafVoxels> dv, cv;
         for (int at = 0; at < kLeafVoxels; ++at) {
+            auto clear = [&] {  // for the next block
+                cov[at] = con[at] = 0;
+                vel[at][0] = vel[at][1] = vel[at][2] = rest[at][0] = rest[at][1] = rest[at][2] = 0;
+            };
             if (!(cov[at] > 0)) {
                 velOut[at] = restOut[at] = openvdb::Vec3s(0.f);
                 dv[at] = cv[at] = 0.f;
+                clear();
                 continue;
             }
             const Real w = 1 / cov[at];
@@ -904,7 +914,9 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             velOut[at] = openvdb::Vec3s(float(vel[at][0] * w), float(vel[at][1] * w), float(vel[at][2] * w));
             restOut[at] = openvdb::Vec3s(float(rest[at][0] * w), float(rest[at][1] * w), float(rest[at][2] * w));
             o.densitySum += d;
+            clear();
         }
+        dirty = false;
         // density and contact: a whole block of one value is an active tile (the inside of an
         // object: density 1, contact 0), as OpenVDB's prune would make it
         const bool full = o.active == kLeafVoxels;
