@@ -55,8 +55,9 @@ struct VdbFrameInfo {
 /// else SSE2), or a narrower one (a kernel the CPU lacks falls back to the next narrower). All
 /// give the same bits (tested); the choice only exists to test that.
 enum class VdbKernel { Auto, Avx512, Avx2, Sse2 };
-/// Who serialises the grids: dgv's parallel writer (the leaf buffers compressed once, on every
-/// core, by OpenVDB's own leaf code) or openvdb::io::Archive::write. Both write the same bytes
+/// Who serialises the grids: dgv's streamed writer (the leaf buffers compressed once, on every
+/// core, by OpenVDB's own leaf code, while a thread writes the grids already done) or
+/// openvdb::io::Archive::write. Both write the same bytes
 /// but for the file's random UUID (tested); the choice only exists to test that.
 enum class VdbWriter { Parallel, OpenVdb };
 /// How the (leaf block, cell) pairs are grouped by block: by counting where the blocks' bounding
@@ -81,16 +82,16 @@ struct VdbStageSeconds {
     double voxels = 0;     ///< inverting the cell maps at the voxel centres, coverage, values
     double trees = 0;      ///< the leaves into the four world grids
     double surface = 0;    ///< the `surface` level set (when asked for)
-    double lattice = 0;    ///< `position` and `volume_ratio`
-    double file = 0;       ///< OpenVDB serialisation with Blosc into the file, size check
+    double lattice = 0;    ///< `position` and `volume_ratio` (built during `file`, while the world grids are written)
+    double file = 0;       ///< serialisation with Blosc, writing, fsync, size check
     double verify = 0;     ///< re-reading the file's metadata, and the rename
 };
 
 struct VdbWriteReport {
     std::uintmax_t bytes = 0;    ///< size of the written file
     double seconds = 0;          ///< whole call, wall clock
-    double resampleSeconds = 0;  ///< building the grids
-    double writeSeconds = 0;     ///< writing, checking and renaming the file
+    double resampleSeconds = 0;  ///< building the world grids (and `surface`)
+    double writeSeconds = 0;     ///< writing, checking and renaming the file (the lattice grids are built meanwhile)
     Index activeVoxels = 0;      ///< active voxels of the world grids (density > 0)
     Real densityVolume = 0;      ///< sum of density * voxel volume, world units^3
     Real objectVolume = 0;       ///< sum of the deformed cell volumes of all objects
