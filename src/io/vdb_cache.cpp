@@ -713,15 +713,15 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
     const Eigen::Vector3i dims = anyCell ? Eigen::Vector3i(bmax - bmin + Eigen::Vector3i::Ones()) : Eigen::Vector3i::Zero();
     const std::int64_t dense = std::int64_t(dims[0]) * dims[1] * dims[2];
     constexpr std::int64_t kDenseMax = std::int64_t(1) << 23;  // 64 MB of counts at most
+    auto forBlocks = [&](const CellMap& m, auto&& f) {  // the blocks a cell's voxel box meets
+        for (int bz = floorDiv(m.lo[2]); bz <= floorDiv(m.hi[2]); ++bz)
+            for (int by = floorDiv(m.lo[1]); by <= floorDiv(m.hi[1]); ++by)
+                for (int bx = floorDiv(m.lo[0]); bx <= floorDiv(m.hi[0]); ++bx) f(bx, by, bz);
+    };
     if (anyCell && dense <= kDenseMax && binning == VdbBinning::Auto) {
         // x fastest, then y, then z: the order of key()
         auto denseIndex = [&](int bx, int by, int bz) {
             return (std::size_t(bz - bmin[2]) * std::size_t(dims[1]) + std::size_t(by - bmin[1])) * std::size_t(dims[0]) + std::size_t(bx - bmin[0]);
-        };
-        auto forBlocks = [&](const CellMap& m, auto&& f) {
-            for (int bz = floorDiv(m.lo[2]); bz <= floorDiv(m.hi[2]); ++bz)
-                for (int by = floorDiv(m.lo[1]); by <= floorDiv(m.hi[1]); ++by)
-                    for (int bx = floorDiv(m.lo[0]); bx <= floorDiv(m.hi[0]); ++bx) f(bx, by, bz);
         };
         std::vector<std::size_t> at(static_cast<std::size_t>(dense) + 1, 0);
         for (Index c = 0; c < totalCells; ++c) {
@@ -759,9 +759,7 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             const CellMap& m = maps[static_cast<std::size_t>(c)];
             if (!m.valid) return;
             std::size_t i = static_cast<std::size_t>(counts[static_cast<std::size_t>(c)]);
-            for (int bz = floorDiv(m.lo[2]); bz <= floorDiv(m.hi[2]); ++bz)
-                for (int by = floorDiv(m.lo[1]); by <= floorDiv(m.hi[1]); ++by)
-                    for (int bx = floorDiv(m.lo[0]); bx <= floorDiv(m.hi[0]); ++bx) pairs[i++] = {key(bx, by, bz), c};
+            forBlocks(m, [&](int bx, int by, int bz) { pairs[i++] = {key(bx, by, bz), c}; });
         }, 1024);
         tbb::parallel_sort(pairs.begin(), pairs.end());  // (key, cell) pairs are unique: deterministic
         blockCells.resize(pairs.size());
@@ -801,8 +799,7 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         const int by = int(std::int64_t((k >> 21) & ((1u << 21) - 1)) - kOff);
         const int bz = int(std::int64_t(k >> 42) - kOff);
         const Eigen::Vector3i base(bx * kLeafDim, by * kLeafDim, bz * kLeafDim);
-        // the block's sums, as plain arrays cleared at once
-        // Zero: the block before cleared each voxel's sums as it read them, in the loop that
+        // The block's sums, zero: the block before cleared each voxel's sums as it read them, in the loop that
         // writes the leaves; a block that did not get there (no active voxel, an exception)
         // leaves them `dirty`.
         thread_local BlockSums sums;  // zero-initialised
@@ -1505,12 +1502,10 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         names.push_back("position" + latticeSuffix(objects, f));
         names.push_back("volume_ratio" + latticeSuffix(objects, f));
     }
-    openvdb::GridPtrVec keep;  // the lattice grids live until the file is written
     auto later = [&]() -> openvdb::GridCPtrVec {
         const auto tl = Clock::now();
         LatticeGrids lattice = latticeGrids(objects, info);
         report.objectVolume = lattice.objectVolume;
-        keep = lattice.grids;
         report.stages.lattice = since(tl);
         return openvdb::GridCPtrVec(lattice.grids.begin(), lattice.grids.end());
     };
