@@ -47,6 +47,16 @@ float halfToFloat(std::uint16_t h) {
     return sign ? -v : v;
 }
 
+bool hasGlExtension(const char* name) {
+    GLint count = 0;
+    glGetIntegerv(GL_NUM_EXTENSIONS, &count);
+    for (GLint i = 0; i < count; ++i) {
+        const auto* e = reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i)));
+        if (e && std::strcmp(e, name) == 0) return true;
+    }
+    return false;
+}
+
 bool hasShaders(const fs::path& dir) {
     std::error_code ec;
     return fs::is_regular_file(dir / "mesh.vert", ec) && fs::is_regular_file(dir / "mesh.frag", ec);
@@ -311,7 +321,13 @@ struct Renderer::Impl {
 
     explicit Impl(const RenderSettings& s) : settings(s), context(s.backend) {
         const std::string dir = s.shaderDir.empty() ? findShaderDir() : s.shaderDir;
-        meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl");
+        // Supersampled: the mesh pass shares its PCF taps across each 2x2 fragment quad
+        // (lighting.glsl, DGV_QUAD_PCF; fine derivatives, core in GL 4.5). At 1x a quad spans
+        // 2x2 output pixels, which would show as blocks in the penumbra: four taps each there.
+        const bool quadPcf =
+            s.sharedShadowTaps && s.supersample >= 2 && hasGlExtension("GL_ARB_derivative_control");
+        meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl",
+                                    quadPcf ? "#define DGV_QUAD_PCF 1\n" : "");
         groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl");
         groundPlainProgram =
             ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", "#define DGV_SHADOWS 0\n");

@@ -88,6 +88,11 @@ struct RenderSettings {
     /// this angle; sharper edges split the vertices (a crisp box). 180: smooth everywhere.
     /// The split is decided when a mesh's triangle list is first seen (0..180 degrees).
     double creaseDegrees = 40;
+    /// Supersampled (n >= 2): the fragments of each 2x2 quad share their key-light PCF taps,
+    /// two taps each instead of four (shaders/lighting.glsl): the scene pass's texture work
+    /// halves, and pixels stay within 4/255 of the four-tap result but for a few on hard shadow
+    /// edges. false: four taps per subsample (the reference the tests compare with).
+    bool sharedShadowTaps = true;
     /// Finish the GL work after each pass to time it (Timings::shadowMs...). Off in production
     /// renders: the waits stop llvmpipe overlapping passes.
     bool profilePasses = false;

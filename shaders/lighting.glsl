@@ -2,8 +2,16 @@
 // Linear light throughout. Directions point from the surface towards the light (world space).
 // DGV_SHADOWS 0 compiles the shadow lookup out (the renderer draws the part of the ground that
 // no shadow can reach with that variant: on llvmpipe every PCF tap costs on every fragment).
+// DGV_QUAD_PCF 1 (the supersampled mesh pass, n >= 2): the fragments of each 2x2 quad share
+// their PCF taps through fine derivatives, two taps each instead of four (keyVisibility).
 #ifndef DGV_SHADOWS
 #define DGV_SHADOWS 1
+#endif
+#ifndef DGV_QUAD_PCF
+#define DGV_QUAD_PCF 0
+#endif
+#if DGV_QUAD_PCF
+#extension GL_ARB_derivative_control : require
 #endif
 
 uniform vec3 uKeyDir;
@@ -34,9 +42,30 @@ float keyVisibility(vec3 p, vec3 n) {
 #else
     if (uShadowsOn == 0) return 1.0;
     vec3 c = (uShadowFromWorld * vec4(p + n * uNormalOffset, 1.0)).xyz;
-    if (c.x < 0.0 || c.x > 1.0 || c.y < 0.0 || c.y > 1.0) return 1.0;
+    bool inside = c.x >= 0.0 && c.x <= 1.0 && c.y >= 0.0 && c.y <= 1.0;
     float ref = min(c.z, 0.9999);
     float r = uShadowRadius;
+#if DGV_QUAD_PCF
+    // At n x n supersampling a 2x2 fragment quad is one output pixel (n = 2) or a quarter of
+    // one (n = 4), and the pixel's value is the mean of its fragments'. So the quad shares its
+    // taps: of the 16 that its four fragments would take with the 4-tap kernel each, every
+    // fragment takes the two along its own diagonal (its outer and its inner corner, +-r along
+    // `corner`), and the quad sums the 8 with fine derivatives (the row's pair, then the two
+    // rows). All four fragments get that value: half the texture work (about -5 ms of the
+    // benchmark's scene pass), and the pixel within 4/255 of the 16-tap result but for a few
+    // pixels on hard shadow edges (one tap per fragment, the 4-tap kernel per pixel, saved
+    // twice that but visibly stepped those edges; docs/rendering.md).
+    // `corner` is -1 for the left (bottom) fragment of a pair and +1 for the other, from the
+    // derivative of the pixel parity, so it holds however the quads align. Uniform control
+    // flow (derivatives): helper fragments take part; the out-of-map test is a select.
+    vec2 parity = vec2(ivec2(gl_FragCoord.xy) & 1) * 2.0 - 1.0;
+    vec2 corner = parity * (0.5 * vec2(dFdxFine(parity.x), dFdyFine(parity.y)));
+    float v = texture(uShadowMap, vec3(c.xy + r * corner, ref)) + texture(uShadowMap, vec3(c.xy - r * corner, ref));
+    v = inside ? v : 2.0;
+    float rowPair = 2.0 * v - corner.x * dFdxFine(v);          // left + right
+    float sum = 0.5 * (2.0 * rowPair - corner.y * dFdyFine(rowPair));  // bottom pair + top pair
+#else
+    if (!inside) return 1.0;
     // uFootprint (the ground shaded once per output pixel): the taps also spread over the
     // pixel's footprint in the map, at its 2x2 subsample positions, so the shadow edge is
     // filtered like the supersampled meshes instead of stepping from pixel to pixel.
@@ -46,6 +75,7 @@ float keyVisibility(vec3 p, vec3 n) {
               + texture(uShadowMap, vec3(c.xy + dx - dy + vec2(r, -r), ref))
               + texture(uShadowMap, vec3(c.xy - dx + dy + vec2(-r, r), ref))
               + texture(uShadowMap, vec3(c.xy + dx + dy + vec2(r, r), ref));
+#endif
     return 0.25 * sum;
 #endif
 }

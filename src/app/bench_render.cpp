@@ -69,7 +69,8 @@ void render(std::ostream& out, const BenchOptions& options) {
     scene.groundPlane = true;
     Box3 bounds;
     for (const Vec3& p : scene.meshes[0].positions) bounds.extend(p);
-    PngWriteOptions png;  // the defaults dgv render uses for 8-bit frames
+    PngWriteOptions png;  // what dgv render writes for 8-bit frames on an opaque background: RGB
+    png.alpha = settings.transparentBackground;
     const int repeats = std::max(options.repeats, 1);
     auto camera = [&](int f) {
         return turntableCamera(bounds, 15.0 * f, 20, 35, Real(settings.width) / settings.height);

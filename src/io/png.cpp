@@ -4,6 +4,7 @@
 #include "io/atomic_file.hpp"
 
 #include <png.h>
+#include <zlib.h>  // Z_RLE
 #include <unistd.h>
 
 #include <cerrno>
@@ -95,6 +96,10 @@ int encodeRaw(const EncodeJob* job, PngError* err) {
     }
     // Fixed settings: one filter, fixed level -> the same image always gives the same bytes.
     png_set_compression_level(png, job->compressionLevel);
+    // Levels 1-3: zlib's run-length strategy (matches at distance 1 only). On SUB-filtered
+    // renders it is 1.6-1.7x faster than the default strategy at level 3 and about as small
+    // (a 1080p frame: 14 vs 22 ms, 288 vs 304 KB; docs/rendering.md).
+    if (job->compressionLevel >= 1 && job->compressionLevel <= 3) png_set_compression_strategy(png, Z_RLE);
     png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
     png_set_IHDR(png, info, static_cast<png_uint_32>(job->width), static_cast<png_uint_32>(job->height),
                  job->bitDepth, job->alphaOut ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB,

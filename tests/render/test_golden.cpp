@@ -357,3 +357,44 @@ TEST_CASE("renderer: a closed mesh wound inside out looks the same as the right 
     CHECK(r.pass);
     CHECK(r.maxError < 2.0);
 }
+
+TEST_CASE("renderer: shared shadow taps match four taps per subsample", "[render]") {
+    // RenderSettings::sharedShadowTaps: the 2x2 fragment quads of the supersampled mesh pass
+    // share their PCF taps (two each instead of four, summed with fine derivatives). Taps on
+    // the wrong corners, or a sum over half a quad, show all over a wide penumbra (checked by
+    // breaking the shader: 2 and 4 failed assertions); the sharing itself differs from the 16
+    // taps only on hard shadow edges (the default trefoil at 1080p: 56 pixels over 4/255).
+    // A ball over a wide slab, seen close up: its shadow falls on the slab (mesh on mesh; the
+    // ground's own shadow is drawn at output size with four taps per pixel either way), and
+    // the shadow map, spread over the slab's bounding sphere, is magnified to about 4 pixels
+    // a texel, so the penumbra is some 15 pixels wide instead of the usual one or two.
+    test::FpTrapsOff guard;
+    FrameScene scene;
+    scene.meshes.push_back(test::box(Vec3(0, -0.1, 0), Vec3(40.0, 0.2, 40.0), 4));
+    scene.meshes.back().colour = Vec3(0.7, 0.7, 0.7);
+    scene.meshes.push_back(test::uvSphere(Vec3(0.0, 0.8, 0.0), 0.5, 32, 64));
+    scene.meshes.back().colour = Vec3(0.7, 0.3, 0.2);
+    scene.groundPlane = false;
+    Camera camera;
+    camera.eye = Vec3(0.0, 2.5, 3.5);
+    camera.target = Vec3(0.0, 0.3, 0.0);
+    for (int factor : {2, 4}) {
+        Image img[2];
+        for (int i = 0; i < 2; ++i) {
+            RenderSettings s;
+            s.width = s.height = kSize;
+            s.supersample = factor;
+            s.sharedShadowTaps = i == 0;
+            Renderer renderer(s);
+            img[i] = renderer.render(scene, camera);
+        }
+        ImageCompareSettings rule;
+        rule.threshold = 4;
+        rule.maxFraction = 0.001;
+        const ImageCompareResult r = compareImages(img[1], img[0], rule);
+        INFO("factor " << factor << ": " << r.summary());
+        CHECK(r.pass);
+        CHECK(r.maxError <= 8);
+        CHECK(img[0].rgba != img[1].rgba);  // the shared taps are in use
+    }
+}
