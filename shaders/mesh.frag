@@ -1,14 +1,20 @@
 #version 330 core
 // (lighting.glsl is inserted here)
+// DGV_SCALAR 0: the variant for meshes without a highlight scalar (the renderer picks it per
+// mesh); vScalar is then not read, and the linker drops it from mesh.vert's outputs.
+#ifndef DGV_SCALAR
+#define DGV_SCALAR 1
+#endif
 in vec3 vPosition;
 in vec3 vNormal;
+#if DGV_SCALAR
 in float vScalar;
+#endif
 
 uniform vec3 uEye;
 uniform vec3 uAlbedo;
 // Highlight ramp (render/renderer.hpp, ScalarRamp): where the scalar is > 0 the albedo is
 // mix(uRampLow, uRampHigh, clamp((s - uRampMin) * uRampInvSpan, 0, 1)).
-uniform int uHasScalar;
 uniform vec3 uRampLow;
 uniform vec3 uRampHigh;
 uniform float uRampMin;
@@ -23,8 +29,9 @@ void main() {
     vec3 v = normalize(uEye - vPosition);
 
     vec3 albedo = uAlbedo;
-    if (uHasScalar != 0 && vScalar > 0.0)
-        albedo = mix(uRampLow, uRampHigh, clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0));
+#if DGV_SCALAR
+    if (vScalar > 0.0) albedo = mix(uRampLow, uRampHigh, clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0));
+#endif
 
     float key = keyVisibility(vPosition, n);
     vec3 irradiance = uKeyColour * (max(dot(n, uKeyDir), 0.0) * key)

@@ -191,6 +191,33 @@ TEST_CASE("renderer: the same input gives identical pixels; a moved object chang
     CHECK(other.render(scene, frontCamera()).rgba == a.rgba);
 }
 
+TEST_CASE("renderer: a mesh without a highlight scalar looks as one whose scalar is all zero", "[render]") {
+    // Meshes without a scalar are drawn by the shader variant without the vScalar varying
+    // (DGV_SCALAR 0); it must give the same pixels as the full shader where the ramp is off.
+    // The second sphere has a ramp on one vertex, so both programs are used in one frame.
+    test::FpTrapsOff guard;
+    RenderSettings settings = smallSettings();
+    Renderer renderer(settings);
+    FrameScene plain = sphereScene(Vec3(-1.2, 0, 0), true);
+    plain.meshes.push_back(test::uvSphere(Vec3(1.2, 0, 0), 1.0));
+    plain.meshes.back().colour = Vec3(0.3, 0.5, 0.8);
+    plain.meshes.back().scalar.assign(plain.meshes.back().positions.size(), 0.0);
+    plain.meshes.back().scalar[0] = 1.0;  // the pole: a ramped spot
+    FrameScene zero = plain;
+    zero.meshes[0].scalar.assign(zero.meshes[0].positions.size(), 0.0);
+    Camera cam = frontCamera();
+    cam.eye = Vec3(0, 0, 8);
+    const Image a = renderer.render(plain, cam);
+    const Image b = renderer.render(zero, cam);
+    CHECK(a.rgba == b.rgba);
+    FrameScene ramped = zero;
+    ramped.meshes[0].scalar.assign(ramped.meshes[0].positions.size(), 1.0);
+    long changed = 0;
+    const Image c = renderer.render(ramped, cam);
+    for (std::size_t i = 0; i < a.rgba.size(); ++i) changed += a.rgba[i] != c.rgba[i];
+    CHECK(changed > 500);  // the scalar does reach the full shader
+}
+
 TEST_CASE("renderer: the ground shows the key light's shadow", "[render]") {
     test::FpTrapsOff guard;
     RenderSettings settings = smallSettings();
