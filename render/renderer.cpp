@@ -754,8 +754,8 @@ struct Renderer::Impl {
         lights.fillDir = (0.9 * rightH + 0.25 * Vec3::UnitY() + 0.6 * backH).normalized();
         lights.rimDir = (0.35 * rightH + 0.7 * Vec3::UnitY() - 1.0 * backH).normalized();
 
-        // Ground: a quad under the lowest point, fading out radially.
-        const Real groundY = haveGeometry ? bounds.min.y() : 0.0;
+        // Ground: a quad at the given height, else under the lowest point, fading out radially.
+        const Real groundY = scene.groundHeight ? *scene.groundHeight : haveGeometry ? bounds.min.y() : 0.0;
         const Real fadeInner = 1.2 * radius, fadeOuter = 4.0 * radius;
         const bool drawGround = scene.groundPlane && haveGeometry;
 
@@ -899,11 +899,13 @@ struct Renderer::Impl {
         glDisable(GL_CULL_FACE);
         glCullFace(GL_BACK);
 
-        // With the eye above the ground plane the ground can never hide a mesh (every mesh
-        // point is above it), so it is shaded once per output pixel into its own target and
-        // composited under the supersampled meshes in the resolve: a quarter of the fragments
-        // at 2x2. Otherwise (eye below the plane) it is drawn here, depth-tested, at n x n.
-        const bool groundAtOutput = drawGround && camera.eye.y() > groundY;
+        // With the eye above the ground plane and every mesh point above it, the ground can never
+        // hide a mesh, so it is shaded once per output pixel into its own target and composited
+        // under the supersampled meshes in the resolve: a quarter of the fragments at 2x2.
+        // Otherwise (eye below the plane, or a mesh reaching below a given ground height) it is
+        // drawn here, depth-tested, at n x n.
+        const bool groundAtOutput =
+            drawGround && camera.eye.y() > groundY && bounds.min.y() >= groundY - 1e-4 * radius;
         auto drawGroundCells = [&]() {
             // Where shadows can fall: the bounding sphere projected along the key light onto
             // the ground, an ellipse whose bounding box is the centre cell (plus the PCF reach).

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -59,7 +60,11 @@ struct PointSet {
 
 struct FrameScene {
     std::vector<DrawMesh> meshes;
-    bool groundPlane = true;  ///< a ground under the lowest point, with a soft contact shadow
+    bool groundPlane = true;  ///< a ground plane with a soft contact shadow
+    /// The ground plane's height (y), e.g. a ground collider's; unset: just under the meshes'
+    /// lowest point (a studio floor for turntables). A body falling towards a fixed ground
+    /// needs it set, or the floor would follow the body down until it lands.
+    std::optional<Real> groundHeight;
     /// Overlays, drawn after the surfaces and the ground (they do not move the ground, the
     /// shadow or the lights, which follow the meshes' bounds).
     std::vector<Polyline> lines;

@@ -208,6 +208,11 @@ int runRender(const RenderOptions& options) {
     ensureDirectory(scene.output.dir);
     FrameScene frameScene;
     frameScene.groundPlane = scene.render.ground;
+    // A ground collider is drawn as the render's ground plane, at its height (the highest, if
+    // there are several): a falling body then approaches a fixed floor.
+    for (const ColliderDesc& c : scene.colliders)
+        if (c.type == ColliderType::Ground)
+            frameScene.groundHeight = std::max(frameScene.groundHeight.value_or(c.height), c.height);
     frameScene.meshes.resize(objects.size());
     for (std::size_t i = 0; i < objects.size(); ++i) {
         frameScene.meshes[i].triangles = objects[i].restMesh.triangles;

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -216,6 +217,44 @@ TEST_CASE("renderer: a mesh without a highlight scalar looks as one whose scalar
     const Image c = renderer.render(ramped, cam);
     for (std::size_t i = 0; i < a.rgba.size(); ++i) changed += a.rgba[i] != c.rgba[i];
     CHECK(changed > 500);  // the scalar does reach the full shader
+}
+
+TEST_CASE("renderer: a given ground height stays put while the object falls", "[render]") {
+    // FrameScene::groundHeight (a ground collider's height): the floor is drawn there, not under
+    // the lowest point, so a falling ball approaches a fixed floor. A probe on the floor, away
+    // from the ball and its shadow, keeps its value; without the height the floor follows the
+    // ball and the probe changes.
+    test::FpTrapsOff guard;
+    RenderSettings settings = smallSettings();
+    Renderer renderer(settings);
+    Camera cam;
+    cam.eye = Vec3(0, 2.5, 9);
+    cam.target = Vec3(0, 1.5, 0);
+    cam.fovYDegrees = 35;
+    auto render = [&](Real height, bool fixedGround) {
+        FrameScene scene = sphereScene(Vec3(0, height, 0), true);
+        if (fixedGround) scene.groundHeight = 0.0;
+        return renderer.render(scene, cam);
+    };
+    auto probe = [](const Image& img) {  // low on the left: floor, clear of the ball's shadow
+        const std::uint16_t* p = img.pixel(10, 118);
+        return std::array<std::uint16_t, 4>{p[0], p[1], p[2], p[3]};
+    };
+    const Image high = render(3.0, true), low = render(1.5, true);
+    CHECK(probe(high) == probe(low));
+    const std::uint16_t bg = encodedBackground(settings.background[0]);
+    CHECK(probe(high)[0] != bg);  // the probe is on the floor
+    // The ground is below the lowest point either way, so it is composited at output size.
+    const Image followHigh = render(3.0, false), followLow = render(1.5, false);
+    CHECK(probe(followHigh) != probe(followLow));
+    // A ground height above the ball's lowest point: the floor is drawn depth-tested and hides
+    // the part below it (the bottom rows of the ball's silhouette become floor).
+    FrameScene sunk = sphereScene(Vec3(0, 1.5, 0), true);
+    sunk.groundHeight = 1.0;
+    const Image s = renderer.render(sunk, cam);
+    long changed = 0;
+    for (std::size_t i = 0; i < s.rgba.size(); ++i) changed += s.rgba[i] != low.rgba[i];
+    CHECK(changed > 200);
 }
 
 TEST_CASE("renderer: the ground shows the key light's shadow", "[render]") {
