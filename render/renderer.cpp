@@ -905,7 +905,7 @@ struct Renderer::Impl {
         // Otherwise (eye below the plane, or a mesh reaching below a given ground height) it is
         // drawn here, depth-tested, at n x n.
         const bool groundAtOutput =
-            drawGround && camera.eye.y() > groundY && bounds.min.y() >= groundY - 1e-4 * radius;
+            drawGround && camera.eye.y() > groundY && bounds.min.y() >= groundY - 1e-3 * radius;
         auto drawGroundCells = [&]() {
             // Where shadows can fall: the bounding sphere projected along the key light onto
             // the ground, an ellipse whose bounding box is the centre cell (plus the PCF reach).
