@@ -763,8 +763,25 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     mHavePrev = true;
     mX.swap(xNew);
     std::array<std::vector<Mat3>, 3> gammaOld;
-    if (mSet.realizedRate) gammaOld = mState.christoffel;
+    const bool antiWindup = mSet.antiWindup && !mSet.realizedRate && report.contacts > 0;
+    if (mSet.realizedRate || antiWindup) gammaOld = mState.christoffel;
     computeGeometricState(mLat, mX, mState);
+    if (antiWindup) {
+        // Anti-windup in contact: keep the realised fraction of δΓ at each point, between 0 (the
+        // constraints refused it all, or turned it round) and 1 (it all happened). The direction
+        // stays eq 76's; the constraints' own push never becomes a rate.
+        parallelFor(n, [&](Index p) {
+            Real realised = 0, asked = 0;
+            for (std::size_t c = 0; c < 3; ++c) {
+                const Mat3 change = mState.christoffel[c][at(p)] - gammaOld[c][at(p)];
+                realised += change.cwiseProduct(mDGamma[c][at(p)]).sum();
+                asked += mDGamma[c][at(p)].squaredNorm();
+            }
+            if (!(asked > 0)) return;
+            const Real f = std::clamp(realised / asked, Real(0), Real(1));
+            for (std::size_t c = 0; c < 3; ++c) mDGamma[c][at(p)] *= f;
+        });
+    }
     if (mSet.realizedRate) {
         // The rate carried to the next step is the change that happened (after reconstruction,
         // colliders, pins and the volume projection), not the one that was asked for: what the

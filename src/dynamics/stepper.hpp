@@ -89,6 +89,13 @@ struct DynamicsSettings {
     /// next step's δΓ (true), or the one eq 76 asked for (false, the default). Measured: true
     /// turns a collider's one-step squash into a lasting rate and folds the body (docs/math.md).
     bool realizedRate = false;
+    /// Anti-windup of the twist in contact (docs/math.md, "Twist anti-windup in contact"): in a
+    /// step with contacts, the next δΓ at each point keeps only the realised fraction of this
+    /// step's, f = clamp(⟨Γ_new − Γ_old, δΓ⟩ / ⟨δΓ, δΓ⟩, 0, 1) — what the collider and the volume
+    /// projection refused does not accumulate (a jelly resting on the ground wound up until it
+    /// folded), and, unlike `realizedRate`, the collider's own push never enters δΓ. Free
+    /// flight is untouched. false: for comparison.
+    bool antiWindup = true;
     /// A free body's contacts push its body and flex first (the least-kinetic-energy change of
     /// centre and affine part, volume-keeping, that lifts the contact points out; docs/math.md,
     /// "Contact: body and flex take the collider's push first"), then single points. false: only
