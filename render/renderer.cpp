@@ -792,8 +792,24 @@ struct Renderer::Impl {
                     maxDepth = std::max(maxDepth, depthOf(corner));
                 }
             }
+            // The ground's nearest visible point: a plane meets the view frustum's visible part
+            // nearest the eye where its side edges (the corner rays) cross it. Without this a
+            // low camera clipped the floor in front of it, a band of background at the bottom.
+            Real groundNear = std::numeric_limits<Real>::infinity();
+            if (drawGround) {
+                const Mat4 worldFromView = viewFromWorld.inverse();
+                const Real ty = std::tan(0.5 * camera.fovYDegrees * 3.14159265358979323846 / 180);
+                const Real tx = ty * static_cast<Real>(w) / h;
+                for (int c = 0; c < 4; ++c) {
+                    const Vec3 viewDir((c & 1) ? tx : -tx, (c & 2) ? ty : -ty, -1);  // view depth 1
+                    const Vec3 dir = worldFromView.block<3, 3>(0, 0) * viewDir;
+                    if (dir.y() == 0) continue;
+                    const Real t = (groundY - camera.eye.y()) / dir.y();  // = the hit's view depth
+                    if (t > 0) groundNear = std::min(groundNear, t);
+                }
+            }
             if (farZ <= 0) farZ = std::max(maxDepth * 1.05, 1e-3);
-            if (nearZ <= 0) nearZ = std::max(0.5 * minDepth, 1e-3 * farZ);
+            if (nearZ <= 0) nearZ = std::max(std::min(0.5 * minDepth, 0.9 * groundNear), 1e-3 * farZ);
             if (!(nearZ < farZ)) nearZ = 1e-3 * farZ;
         }
         const Real aspect = static_cast<Real>(w) / h;

@@ -257,6 +257,26 @@ TEST_CASE("renderer: a given ground height stays put while the object falls", "[
     CHECK(changed > 200);
 }
 
+TEST_CASE("renderer: a low camera sees the floor up to the bottom edge of the frame", "[render]") {
+    // The automatic near plane also covers the ground's nearest visible point (where the view's
+    // corner rays meet it); before, a camera 0.3 above the floor clipped the floor in front of it
+    // and the bottom rows showed the background.
+    test::FpTrapsOff guard;
+    RenderSettings settings = smallSettings();
+    Renderer renderer(settings);
+    Camera cam;
+    cam.eye = Vec3(0, -0.7, 4);  // the sphere's lowest point, hence the floor, is at y = -1
+    cam.target = Vec3(0, -0.7, 0);
+    cam.fovYDegrees = 35;
+    const Image img = renderer.render(sphereScene(Vec3::Zero(), true), cam);
+    const std::uint16_t bg = encodedBackground(settings.background[0]);
+    for (int x : {0, 64, 127}) {
+        INFO("x " << x);
+        CHECK(img.pixel(x, 127)[0] != bg);  // floor, not background
+        CHECK(img.pixel(x, 127)[0] > bg);   // the floor is lighter than the background
+    }
+}
+
 TEST_CASE("renderer: the ground shows the key light's shadow", "[render]") {
     test::FpTrapsOff guard;
     RenderSettings settings = smallSettings();
