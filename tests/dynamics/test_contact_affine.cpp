@@ -22,6 +22,20 @@ namespace {
 
 bool verbose() { return std::getenv("DGV_TEST_VERBOSE") != nullptr; }
 
+/// Steps `body` under `field` against `colliders` at 96 steps/s, at most `steps` times, calling
+/// `each(step, report)` after every step that did not fault. Returns the first fault ("" if
+/// none); `done` counts the steps completed.
+template <class Each>
+std::string stepAt96(DeformableBody& body, const ForceField& field, const std::vector<Collider>& colliders,
+                     int steps, int& done, Each&& each) {
+    for (done = 0; done < steps; ++done) {
+        const StepReport r = body.step(field, 1, 1.0 / 96, colliders);
+        if (!r.fault.empty()) return r.fault;
+        each(done, r);
+    }
+    return {};
+}
+
 }  // namespace
 
 TEST_CASE("affine contact: one contact at the pole has the closed form", "[dynamics][contact]") {
@@ -99,13 +113,7 @@ TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it; wi
         DeformableBody body(lat, restPositions(lat), set);
         body.setAffineVelocity(Vec3(0, -1, 0), Mat3::Zero());
         Outcome o;
-        for (int s = 0; s < steps; ++s) {
-            const StepReport r = body.step(g, 1, 1.0 / 96, colliders);
-            if (!r.fault.empty()) {
-                o.fault = r.fault;
-                return o;
-            }
-            o.steps = s + 1;
+        o.fault = stepAt96(body, g, colliders, steps, o.steps, [&](int s, const StepReport& r) {
             o.maxErr = std::max(o.maxErr, r.maxCellVolumeError);
             o.maxKe = std::max(o.maxKe, r.kineticEnergy);
             if (s >= 96) o.lateKe = std::max(o.lateKe, r.kineticEnergy);
@@ -116,7 +124,7 @@ TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it; wi
                 std::printf("  t %.2f s: KE %.3g J, centre y %.4f, |v_c| %.2e, |dA/dt| %.2e, sum dGamma^2 %.3g, A_yy %.4f\n",
                             (s + 1) / 96.0, r.kineticEnergy, body.centre().y(), body.centreVelocity().norm(),
                             body.flexVelocity().norm(), r.sumDeltaGamma2, body.flex()(1, 1));
-        }
+        });
         return o;
     };
     const int steps = 192;  // 2 s: lands after ~0.05 s
@@ -159,19 +167,13 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
     };
     const int steps = 288;  // 3 s at 96 steps/s
     auto run = [&](bool antiWindup) {
+        Outcome o;
         DynamicsSettings set;
         set.damping = 2;
         set.shapeStiffness = 1000;
         set.antiWindup = antiWindup;
         DeformableBody body(lat, restPositions(lat), set);
-        Outcome o;
-        for (int s = 0; s < steps; ++s) {
-            const StepReport rep = body.step(g, 1, 1.0 / 96, colliders);
-            if (!rep.fault.empty()) {
-                o.fault = rep.fault;
-                return o;
-            }
-            o.steps = s + 1;
+        o.fault = stepAt96(body, g, colliders, steps, o.steps, [&](int s, const StepReport& rep) {
             o.maxDg2 = std::max(o.maxDg2, rep.sumDeltaGamma2);
             o.maxKe = std::max(o.maxKe, rep.kineticEnergy);
             o.maxErr = std::max(o.maxErr, rep.maxCellVolumeError);
@@ -185,7 +187,7 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
             if (verbose() && s % 48 == 47)
                 std::printf("  anti-windup %d, t %.1f s: sum dGamma^2 %.3g, KE %.3g J, limited %ld\n", antiWindup ? 1 : 0,
                             (s + 1) / 96.0, rep.sumDeltaGamma2, rep.kineticEnergy, static_cast<long>(rep.limitedPoints));
-        }
+        });
         return o;
     };
     const Outcome on = run(true), off = run(false);
