@@ -16,10 +16,10 @@
 #include <Eigen/SVD>
 
 #include <algorithm>
-#include <limits>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 
 namespace dgv {
 
