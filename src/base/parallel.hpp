@@ -11,8 +11,10 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <utility>
 #include <vector>
 
 namespace dgv {
@@ -44,6 +46,12 @@ void parallelForBlocks(Index n, F&& f, Index grain = kParallelGrain) {
     }
     tbb::parallel_for(tbb::blocked_range<Index>(0, n, grain),
                       [&](const tbb::blocked_range<Index>& r) { f(r.begin(), r.end()); });
+}
+
+/// Runs f() and g() concurrently (each is deterministic on its own).
+template <typename F, typename G>
+void parallelInvoke(F&& f, G&& g) {
+    tbb::parallel_invoke(std::forward<F>(f), std::forward<G>(g));
 }
 
 /// Deterministic reduction: returns combine(...combine(identity, map(0..B-1))...) where the

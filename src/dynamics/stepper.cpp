@@ -23,6 +23,16 @@
 
 namespace dgv {
 
+/// The reconstruction's spanning tree (from the solver's fixed points, the roots of both frame
+/// integrations) and its work arrays, kept for the body's life.
+struct ReconstructWork {
+    SpanningTree tree;
+    std::array<std::vector<Mat3>, 3> gammaBar;  ///< Γ + δΓ
+    ConnectionChangeWorkspace change;
+    std::vector<Mat3> frames;
+    std::array<std::vector<Vec3>, 3> forward;
+};
+
 namespace {
 
 inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
@@ -258,6 +268,8 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
     for (Index p = 0; p < n; ++p)
         if (fixed[at(p)]) mSolverFixed.push_back(p);
     mSolver = std::make_unique<PoissonSolver>(mLat, fixed);
+    mRecWork = std::make_unique<ReconstructWork>();
+    mRecWork->tree = spanningTree(mLat, fixed);
     mDisplacement.assign(at(n), Vec3::Zero());
 }
 
@@ -412,7 +424,8 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
 
     // 4. The displacement that Γ + δΓ asks for relative to Γ (file comment).
     t = Clock::now();
-    std::array<std::vector<Mat3>, 3> gammaBar;
+    ReconstructWork& rw = *mRecWork;
+    std::array<std::vector<Mat3>, 3>& gammaBar = rw.gammaBar;
     for (std::size_t c = 0; c < 3; ++c) {
         gammaBar[c].resize(at(n));
         parallelFor(n, [&](Index p) { gammaBar[c][at(p)] = mState.christoffel[c][at(p)] + mDGamma[c][at(p)]; });
@@ -446,29 +459,14 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
             return report;
         }
     }
-    const EdgeTransports e0 = computeEdgeTransports(mLat, mState.christoffel);
-    const EdgeTransports e1 = computeEdgeTransports(mLat, gammaBar);
-    std::vector<Mat3> f0(at(n)), f1(at(n));
     // Both frame fields start from the current frames at the solver's fixed points.
+    rw.frames.resize(at(n));
     parallelFor(n, [&](Index p) {
-        f0[at(p)] << mState.tangent[0][at(p)], mState.tangent[1][at(p)], mState.tangent[2][at(p)];
+        rw.frames[at(p)] << mState.tangent[0][at(p)], mState.tangent[1][at(p)], mState.tangent[2][at(p)];
     });
-    std::vector<Pin> pins;
-    for (Index p : mSolverFixed) pins.push_back(Pin{p, mX[at(p)], f0[at(p)], true, true});
-    f1 = f0;
-    integrateFramesAlongTree(mLat, e0, pins, f0);
-    integrateFramesAlongTree(mLat, e1, pins, f1);
-    std::array<std::vector<Vec3>, 3> forward;
-    for (std::size_t a = 0; a < 3; ++a) {
-        forward[a].assign(at(n), Vec3::Zero());
-        const int slot = static_cast<int>(2 * a + 1);
-        parallelFor(n, [&](Index p) {
-            if (mLat.neighbours[at(p)][static_cast<std::size_t>(slot)] == kNoPoint) return;
-            forward[a][at(p)] = positionStep(mLat, e1, f1, p, slot) - positionStep(mLat, e0, f0, p, slot);
-        });
-    }
+    connectionChangeSteps(mLat, rw.tree, mState.christoffel, gammaBar, rw.frames, rw.change, rw.forward);
     for (Index p : mSolverFixed) mDisplacement[at(p)].setZero();
-    const SolveReport rec = mSolver->solveSteps(mLat, forward, mDisplacement, mSet.reconstructTolerance, 200);
+    const SolveReport rec = mSolver->solveSteps(mLat, rw.forward, mDisplacement, mSet.reconstructTolerance, 200);
     report.reconstructIterations = rec.iterations;
     const Real maxStep = parallelReduce(
         n, Real(0), [&](Real& acc, Index p) { acc = std::max(acc, mDisplacement[at(p)].norm()); },

@@ -53,6 +53,7 @@
 namespace dgv {
 
 class PoissonSolver;
+struct ReconstructWork;
 
 /// How flex is driven (docs/math.md, "Flex").
 enum class FlexDrive {
@@ -301,6 +302,7 @@ private:
 
     std::vector<Index> mSolverFixed;  ///< the reconstruction's reference points (pins, or a centre point per component)
     std::unique_ptr<PoissonSolver> mSolver;
+    std::unique_ptr<ReconstructWork> mRecWork;  ///< the solver's spanning tree and work arrays (stepper.cpp)
     std::vector<Vec3> mDisplacement;  ///< last step's twist displacement (warm start)
     // Between predict and finish:
     bool mPredicted = false;

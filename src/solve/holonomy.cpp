@@ -51,6 +51,19 @@ Mat3 edgeGenerator(const PointConnection& gammaP, const PointConnection& gammaQ,
     return Real(0.5 * sign) * (connectionMatrix(gammaP, axis) + connectionMatrix(gammaQ, axis));
 }
 
+namespace {
+
+/// Degree d of the Taylor polynomial of φ1 at 1-norm x <= 1/4: the first omitted term
+/// x^(d+1) / (d+2)! below 2^-56 (d <= 13).
+int phi1Degree(Real x) {
+    int degree = 1;
+    for (Real term = x * x / Real(6); degree < 13 && term > Real(1.4e-17); ++degree)
+        term *= x / Real(degree + 3);
+    return degree;
+}
+
+}  // namespace
+
 void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1) {
     // Scale S by 2^-k until its 1-norm is <= 1/4, where a Taylor polynomial of phi1 of degree
     // <= 13 is exact to round-off; exp(X) = 1 + X phi1(X) exactly; then square back up
@@ -59,11 +72,7 @@ void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1) {
     int k = 0;
     if (norm > Real(0.25)) k = std::min(60, int(std::ceil(std::log2(norm / Real(0.25)))));
     const Mat3 X = std::ldexp(Real(1), -k) * S;
-    // Degree d: the first omitted term |X|^(d+1) / (d+2)! below 2^-56 (d <= 13 for |X| <= 1/4).
-    const Real x = std::min(norm, Real(0.25));
-    int degree = 1;
-    for (Real term = x * x / Real(6); degree < 13 && term > Real(1.4e-17); ++degree)
-        term *= x / Real(degree + 3);
+    const int degree = phi1Degree(std::min(norm, Real(0.25)));
     // Horner: phi1 = sum_{j=0}^{degree} X^j / (j+1)!
     Mat3 p = Mat3::Identity();
     for (int j = degree; j >= 1; --j) p = Mat3::Identity() + (X * p) / Real(j + 1);
@@ -74,6 +83,30 @@ void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1) {
     }
     expS = e;
     phi1 = p;
+}
+
+void edgeSteps(const Mat3& S, int axis, Vec3& from, Vec3& to) {
+    const Real norm = S.cwiseAbs().colwise().sum().maxCoeff();
+    if (!(norm <= Real(0.25))) {  // also NaN
+        Mat3 t;
+        edgeTransport(S, axis, t, from);
+        edgeTransport(-S, axis, t, to);
+        return;
+    }
+    const int degree = phi1Degree(norm);
+    std::array<Vec3, 14> power;  // S^j e_axis
+    power[0] = Vec3::Unit(axis);
+    for (int j = 1; j <= degree; ++j) power[static_cast<std::size_t>(j)] = S * power[static_cast<std::size_t>(j - 1)];
+    // φ1(±S) e = E ± O, E and O the even and odd terms Σ S^j e / (j+1)!, smallest first.
+    Real factorial = 1;
+    for (int j = 2; j <= degree + 1; ++j) factorial *= Real(j);
+    Vec3 even = Vec3::Zero(), odd = Vec3::Zero();
+    for (int j = degree; j >= 0; --j) {
+        (j & 1 ? odd : even) += power[static_cast<std::size_t>(j)] / factorial;
+        factorial /= Real(j + 1);
+    }
+    from = even + odd;
+    to = even - odd;
 }
 
 void edgeTransport(const Mat3& generator, int axis, Mat3& expS, Vec3& step) {

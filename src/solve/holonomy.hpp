@@ -47,6 +47,12 @@ void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1);
 /// φ1(S) e_axis (see the file comment), by expPhi1.
 void edgeTransport(const Mat3& generator, int axis, Mat3& expS, Vec3& step);
 
+/// The two step vectors of an edge with generator S without its transport matrix:
+/// from = φ1(S) e_axis and to = φ1(−S) e_axis (EdgeTransports::stepFrom, stepTo). For
+/// |S|_1 <= 1/4 by the powers S^j e_axis (the even and odd parts of one Taylor sum, degree as in
+/// expPhi1: about a third of expPhi1's work); larger S by expPhi1 of S and of −S.
+void edgeSteps(const Mat3& S, int axis, Vec3& from, Vec3& to);
+
 /// Holonomy H(γ_n, γ_0) of eq 18 along a lattice path (consecutive points must be
 /// 6-neighbours; checked). `christoffel` is GeometricState::christoffel (3 x #P).
 /// A path of one point gives the identity.

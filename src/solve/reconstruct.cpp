@@ -18,31 +18,6 @@ double since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-/// Breadth-first order from the marked points (in point order), neighbours in slot order:
-/// returns the visit order; parent/slot give each visited point's tree edge (parent -> point).
-std::vector<Index> bfsOrder(const Lattice& lat, const std::vector<unsigned char>& roots,
-                            std::vector<Index>& parent, std::vector<signed char>& slotFromParent) {
-    parent.assign(at(lat.size()), kNoPoint);
-    slotFromParent.assign(at(lat.size()), -1);
-    std::vector<unsigned char> seen(roots);
-    std::vector<Index> order;
-    order.reserve(at(lat.size()));
-    for (Index p = 0; p < lat.size(); ++p)
-        if (roots[at(p)]) order.push_back(p);
-    for (std::size_t head = 0; head < order.size(); ++head) {
-        const Index p = order[head];
-        for (int slot = 0; slot < 6; ++slot) {
-            const Index q = lat.neighbours[at(p)][at(slot)];
-            if (q == kNoPoint || seen[at(q)]) continue;
-            seen[at(q)] = 1;
-            parent[at(q)] = p;
-            slotFromParent[at(q)] = static_cast<signed char>(slot);
-            order.push_back(q);
-        }
-    }
-    return order;
-}
-
 void checkEveryComponentPinned(const Lattice& lat, const std::vector<unsigned char>& fixed) {
     std::vector<unsigned char> has(static_cast<std::size_t>(lat.components), 0);
     for (Index p = 0; p < lat.size(); ++p)
@@ -123,18 +98,39 @@ std::vector<Pin> centrePins(const Lattice& lat, const std::vector<Vec3>& positio
     return pins;
 }
 
+SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& roots) {
+    DGV_CHECK_EQ(static_cast<Index>(roots.size()), lat.size());
+    SpanningTree tree;
+    tree.parent.assign(at(lat.size()), kNoPoint);
+    tree.slot.assign(at(lat.size()), -1);
+    std::vector<unsigned char> seen(roots);
+    tree.order.reserve(at(lat.size()));
+    for (Index p = 0; p < lat.size(); ++p)
+        if (roots[at(p)]) tree.order.push_back(p);
+    for (std::size_t head = 0; head < tree.order.size(); ++head) {
+        const Index p = tree.order[head];
+        for (int slot = 0; slot < 6; ++slot) {
+            const Index q = lat.neighbours[at(p)][at(slot)];
+            if (q == kNoPoint || seen[at(q)]) continue;
+            seen[at(q)] = 1;
+            tree.parent[at(q)] = p;
+            tree.slot[at(q)] = static_cast<signed char>(slot);
+            tree.order.push_back(q);
+        }
+    }
+    return tree;
+}
+
 void integrateFramesAlongTree(const Lattice& lat, const EdgeTransports& e,
                               const std::vector<Pin>& pins, std::vector<Mat3>& frames) {
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     for (const Pin& pin : pins)
         if (pin.fixFrame) frames[at(pin.point)] = pin.frame;
-    std::vector<Index> parent;
-    std::vector<signed char> slot;
-    const std::vector<Index> order = bfsOrder(lat, fixedFrameMask(lat, pins), parent, slot);
-    for (const Index q : order) {
-        const Index p = parent[at(q)];
+    const SpanningTree tree = spanningTree(lat, fixedFrameMask(lat, pins));
+    for (const Index q : tree.order) {
+        const Index p = tree.parent[at(q)];
         if (p == kNoPoint) continue;
-        frames[at(q)] = frames[at(p)] * frameTransport(lat, e, p, slot[at(q)]);  // eq 57
+        frames[at(q)] = frames[at(p)] * frameTransport(lat, e, p, tree.slot[at(q)]);  // eq 57
     }
 }
 
@@ -145,13 +141,11 @@ void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e,
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     for (const Pin& pin : pins)
         if (pin.fixPosition) positions[at(pin.point)] = pin.position;
-    std::vector<Index> parent;
-    std::vector<signed char> slot;
-    const std::vector<Index> order = bfsOrder(lat, fixedPositionMask(lat, pins), parent, slot);
-    for (const Index q : order) {
-        const Index p = parent[at(q)];
+    const SpanningTree tree = spanningTree(lat, fixedPositionMask(lat, pins));
+    for (const Index q : tree.order) {
+        const Index p = tree.parent[at(q)];
         if (p == kNoPoint) continue;
-        positions[at(q)] = positions[at(p)] + positionStep(lat, e, frames, p, slot[at(q)]);  // eq 59
+        positions[at(q)] = positions[at(p)] + positionStep(lat, e, frames, p, tree.slot[at(q)]);  // eq 59
     }
 }
 
@@ -248,6 +242,80 @@ SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
     }
     report.seconds = since(start);
     return report;
+}
+
+void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
+                           const std::array<std::vector<Mat3>, 3>& gamma0,
+                           const std::array<std::vector<Mat3>, 3>& gamma1, const std::vector<Mat3>& frames,
+                           ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward) {
+    const Index n = lat.size();
+    for (std::size_t c = 0; c < 3; ++c) {
+        DGV_CHECK_EQ(static_cast<Index>(gamma0[c].size()), n);
+        DGV_CHECK_EQ(static_cast<Index>(gamma1[c].size()), n);
+    }
+    DGV_CHECK_EQ(static_cast<Index>(frames.size()), n);
+    DGV_CHECK_EQ(static_cast<Index>(tree.parent.size()), n);
+    ConnectionChangeWorkspace& w = work;
+    for (std::size_t b = 0; b < 3; ++b) {
+        w.from0[b].resize(at(n));
+        w.to0[b].resize(at(n));
+        w.from1[b].resize(at(n));
+        w.to1[b].resize(at(n));
+        forward[b].resize(at(n));
+    }
+    w.tree0.resize(at(n));
+    w.tree1.resize(at(n));
+    // Each edge p -> q = p + e_b once, on p: its step vectors, and its transport where it is a
+    // tree edge, into the tree child (one writer per child).
+    auto edge = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q, Vec3& from, Vec3& to,
+                    std::vector<Mat3>& treeT) {
+        const PointConnection gp{gamma[0][at(p)], gamma[1][at(p)], gamma[2][at(p)]};
+        const PointConnection gq{gamma[0][at(q)], gamma[1][at(q)], gamma[2][at(q)]};
+        const Mat3 S = edgeGenerator(gp, gq, b, 1);
+        edgeSteps(S, b, from, to);
+        Mat3 phi1;
+        if (tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1) expPhi1(S, treeT[at(q)], phi1);
+        if (tree.parent[at(p)] == q && tree.slot[at(p)] == 2 * b) expPhi1(-S, treeT[at(p)], phi1);
+    };
+    parallelFor(n, [&](Index p) {
+        for (int b = 0; b < 3; ++b) {
+            const std::size_t bb = at(b);
+            const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
+            if (q == kNoPoint) {
+                w.from0[bb][at(p)].setZero();
+                w.to0[bb][at(p)].setZero();
+                w.from1[bb][at(p)].setZero();
+                w.to1[bb][at(p)].setZero();
+                continue;
+            }
+            edge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.tree0);
+            edge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.tree1);
+        }
+    }, 256);
+    // The frames along the tree (eq 57), both connections at once.
+    w.frames0 = frames;
+    w.frames1 = frames;
+    auto integrate = [&](const std::vector<Mat3>& treeT, std::vector<Mat3>& f) {
+        for (const Index q : tree.order) {
+            const Index p = tree.parent[at(q)];
+            if (p != kNoPoint) f[at(q)] = f[at(p)] * treeT[at(q)];
+        }
+    };
+    parallelInvoke([&] { integrate(w.tree0, w.frames0); }, [&] { integrate(w.tree1, w.frames1); });
+    // D1 − D0 per edge (positionStep's arithmetic).
+    parallelFor(n, [&](Index p) {
+        for (int b = 0; b < 3; ++b) {
+            const std::size_t bb = at(b);
+            const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
+            if (q == kNoPoint) {
+                forward[bb][at(p)].setZero();
+                continue;
+            }
+            const Vec3 d1 = Real(0.5) * (w.frames1[at(p)] * w.from1[bb][at(p)] + w.frames1[at(q)] * w.to1[bb][at(p)]);
+            const Vec3 d0 = Real(0.5) * (w.frames0[at(p)] * w.from0[bb][at(p)] + w.frames0[at(q)] * w.to0[bb][at(p)]);
+            forward[bb][at(p)] = d1 - d0;
+        }
+    });
 }
 
 }  // namespace dgv

@@ -31,6 +31,7 @@
 #include "solve/solve_report.hpp"
 #include "solve/sparse_solve.hpp"
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -92,6 +93,16 @@ SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
 std::vector<unsigned char> fixedPositionMask(const Lattice& lat, const std::vector<Pin>& pins);
 std::vector<unsigned char> fixedFrameMask(const Lattice& lat, const std::vector<Pin>& pins);
 
+/// The breadth-first spanning tree the Path method integrates along: FIFO from the roots (in
+/// point order), neighbours in slot order, so deterministic. Kept by callers that integrate
+/// along the same tree repeatedly (the dynamics, twice a step).
+struct SpanningTree {
+    std::vector<Index> order;        ///< visit order, roots first; unreached points absent
+    std::vector<Index> parent;       ///< #P: the tree parent (kNoPoint: a root or unreached)
+    std::vector<signed char> slot;   ///< #P: slot of the edge parent -> point (-1: none)
+};
+SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& roots);
+
 /// Frames and positions along the breadth-first spanning tree from the pins (method Path):
 /// every point gets the value carried from its tree parent (frames: F(q) = F(p) exp(S_pq);
 /// positions: x(q) = x(p) + D_pq from the frames at both ends). Points of components without a
@@ -101,5 +112,27 @@ void integrateFramesAlongTree(const Lattice& lat, const EdgeTransports& e,
 void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e,
                                  const std::vector<Mat3>& frames, const std::vector<Pin>& pins,
                                  std::vector<Vec3>& positions);
+
+/// Work arrays of connectionChangeSteps, kept between calls (no page faults on large lattices).
+struct ConnectionChangeWorkspace {
+    std::array<std::vector<Vec3>, 3> from0, to0, from1, to1;  ///< step vectors per edge (EdgeTransports)
+    std::vector<Mat3> tree0, tree1;                            ///< #P: frame transport of the tree edge into each point
+    std::vector<Mat3> frames0, frames1;                        ///< #P: the frames of each connection
+};
+
+/// The edge steps a connection change asks for (the dynamics' reconstruction, dynamics/stepper):
+/// with frames integrated along `tree` from `frames` at its roots, once with Γ0 and once with
+/// Γ1, forward[b][p] = D1 − D0 for every edge p -> p + e_b (zero where absent), D the
+/// positionStep of each connection. The same values, to round-off, as computeEdgeTransports,
+/// integrateFramesAlongTree (points the tree misses keep `frames`) and positionStep for each
+/// connection, in one parallel pass over the edges that computes the step vectors by
+/// edgeSteps and transport matrices only for the tree's edges, keeping 288 + 144 bytes a point
+/// (against 576 twice).
+/// @param frames   #P frames; those at the tree's roots start both integrations
+/// @param forward  out: 3 x #P
+void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
+                           const std::array<std::vector<Mat3>, 3>& gamma0,
+                           const std::array<std::vector<Mat3>, 3>& gamma1, const std::vector<Mat3>& frames,
+                           ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward);
 
 }  // namespace dgv

@@ -227,3 +227,26 @@ TEST_CASE("holonomy: expPhi1 agrees with Eigen's Pade exponential", "[solve]") {
         }
     }
 }
+
+TEST_CASE("holonomy: edgeSteps gives the step vectors of the edge transport", "[solve]") {
+    // from = φ1(S) e_axis and to = φ1(-S) e_axis = exp(-S) φ1(S) e_axis, for generators on
+    // both sides of the 1-norm 1/4 where edgeSteps switches from its power sums to expPhi1.
+    std::mt19937 rng(29);
+    std::normal_distribution<Real> n(0, 1);
+    for (Real scale : {1e-8, 1e-3, 0.02, 0.05, 0.08, 0.2, 1.0}) {
+        for (int trial = 0; trial < 20; ++trial) {
+            Mat3 s;
+            for (int i = 0; i < 9; ++i) s(i / 3, i % 3) = scale * n(rng);
+            for (int axis = 0; axis < 3; ++axis) {
+                Mat3 e, phi, eMinus, phiMinus;
+                expPhi1(s, e, phi);
+                expPhi1(-s, eMinus, phiMinus);
+                Vec3 from, to;
+                edgeSteps(s, axis, from, to);
+                INFO("scale " << scale << " axis " << axis);
+                REQUIRE((from - phi.col(axis)).norm() < 4e-16 * phi.norm());
+                REQUIRE((to - phiMinus.col(axis)).norm() < 4e-16 * phiMinus.norm());
+            }
+        }
+    }
+}

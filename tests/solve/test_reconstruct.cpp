@@ -152,3 +152,48 @@ TEST_CASE("reconstruct: round trips through finite-difference connections conver
         }
     }
 }
+
+TEST_CASE("reconstruct: connectionChangeSteps matches transports, tree frames and position steps", "[solve]") {
+    // Two connections of a ball (a twist and a bend of it, by finite differences): the edge-step
+    // differences of the one-pass routine against the same built from EdgeTransports,
+    // integrateFramesAlongTree and positionStep, to round-off (power sums against Horner).
+    const Lattice lat = sphereLattice(6, 0.1);
+    GeometricState s0, s1;
+    const Vec3 c(0.75, 0.75, 0.75);
+    computeGeometricState(lat, mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.2 * Vec3(-(x - c).y(), (x - c).x(), 0) * (x - c).z(); }), s0);
+    computeGeometricState(lat, mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.1 * Vec3((x - c).z() * (x - c).z(), 0, (x - c).x()); }), s1);
+    std::vector<Mat3> frames = framesOf(s0);
+    const std::vector<Pin> pins = centrePins(lat, mapped(lat, [](const Vec3& x) -> Vec3 { return x; }), frames);
+    std::vector<unsigned char> roots(static_cast<std::size_t>(lat.size()), 0);
+    for (const Pin& pin : pins) roots[static_cast<std::size_t>(pin.point)] = 1;
+    const SpanningTree tree = spanningTree(lat, roots);
+    REQUIRE(static_cast<Index>(tree.order.size()) == lat.size());
+    ConnectionChangeWorkspace work;
+    std::array<std::vector<Vec3>, 3> forward;
+    connectionChangeSteps(lat, tree, s0.christoffel, s1.christoffel, frames, work, forward);
+
+    const EdgeTransports e0 = computeEdgeTransports(lat, s0.christoffel);
+    const EdgeTransports e1 = computeEdgeTransports(lat, s1.christoffel);
+    std::vector<Pin> framePins;
+    for (const Pin& pin : pins) framePins.push_back(Pin{pin.point, Vec3::Zero(), frames[static_cast<std::size_t>(pin.point)], true, true});
+    std::vector<Mat3> f0 = frames, f1 = frames;
+    integrateFramesAlongTree(lat, e0, framePins, f0);
+    integrateFramesAlongTree(lat, e1, framePins, f1);
+    REQUIRE(maxDiff(work.frames0, f0) < 1e-14);
+    REQUIRE(maxDiff(work.frames1, f1) < 1e-14);
+    Real worst = 0, size = 0;
+    for (int b = 0; b < 3; ++b)
+        for (Index p = 0; p < lat.size(); ++p) {
+            const std::size_t i = static_cast<std::size_t>(p);
+            if (lat.neighbours[i][static_cast<std::size_t>(2 * b + 1)] == kNoPoint) {
+                REQUIRE(forward[static_cast<std::size_t>(b)][i] == Vec3::Zero());
+                continue;
+            }
+            const Vec3 ref = positionStep(lat, e1, f1, p, 2 * b + 1) - positionStep(lat, e0, f0, p, 2 * b + 1);
+            worst = std::max(worst, (forward[static_cast<std::size_t>(b)][i] - ref).norm());
+            size = std::max(size, ref.norm());
+        }
+    if (verbose()) std::printf("connectionChangeSteps: max difference %.3e of max step change %.3e\n", worst, size);
+    REQUIRE(size > 1e-3);  // the two connections differ
+    REQUIRE(worst < 1e-14);
+}
