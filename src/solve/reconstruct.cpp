@@ -118,6 +118,13 @@ SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& 
             tree.order.push_back(q);
         }
     }
+    tree.position.assign(at(lat.size()), -1);
+    for (std::size_t i = 0; i < tree.order.size(); ++i) tree.position[at(tree.order[i])] = static_cast<Index>(i);
+    tree.parentPosition.resize(tree.order.size());
+    for (std::size_t i = 0; i < tree.order.size(); ++i) {
+        const Index parent = tree.parent[at(tree.order[i])];
+        tree.parentPosition[i] = parent == kNoPoint ? -1 : tree.position[at(parent)];
+    }
     return tree;
 }
 
@@ -263,15 +270,16 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
         w.to1[b].resize(at(n));
         forward[b].resize(at(n));
     }
+    const std::size_t m = tree.order.size();
     w.tree0.resize(at(n));
     w.tree1.resize(at(n));
     // Each edge p -> q = p + e_b once, on p: its step vectors, and its transport where it is a
     // tree edge, into the tree child (one writer per child).
     auto edge = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q, Vec3& from, Vec3& to,
                     std::vector<Mat3>& treeT) {
-        const PointConnection gp{gamma[0][at(p)], gamma[1][at(p)], gamma[2][at(p)]};
-        const PointConnection gq{gamma[0][at(q)], gamma[1][at(q)], gamma[2][at(q)]};
-        const Mat3 S = edgeGenerator(gp, gq, b, 1);
+        Mat3 S;  // edgeGenerator(Γ(p), Γ(q), b, +1) without copying the connections
+        for (std::size_t c = 0; c < 3; ++c)
+            for (int a = 0; a < 3; ++a) S(Index(c), a) = Real(0.5) * (gamma[c][at(p)](a, b) + gamma[c][at(q)](a, b));
         edgeSteps(S, b, from, to);
         Mat3 phi1;
         if (tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1) expPhi1(S, treeT[at(q)], phi1);
@@ -292,16 +300,28 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
             edge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.tree1);
         }
     }, 256);
-    // The frames along the tree (eq 57), both connections at once.
-    w.frames0 = frames;
-    w.frames1 = frames;
-    auto integrate = [&](const std::vector<Mat3>& treeT, std::vector<Mat3>& f) {
-        for (const Index q : tree.order) {
-            const Index p = tree.parent[at(q)];
-            if (p != kNoPoint) f[at(q)] = f[at(p)] * treeT[at(q)];
+    // The frames along the tree (eq 57), both connections at once, in the tree's order (the
+    // parents are recent entries), then put back in point order.
+    w.ordered0.resize(m);
+    w.ordered1.resize(m);
+    parallelFor(static_cast<Index>(m), [&](Index i) {  // the transports in the tree's order
+        const std::size_t q = at(tree.order[at(i)]);
+        w.ordered0[at(i)] = w.tree0[q];
+        w.ordered1[at(i)] = w.tree1[q];
+    });
+    auto integrate = [&](std::vector<Mat3>& ordered) {  // in place: transport -> frame
+        for (std::size_t i = 0; i < m; ++i) {
+            const Index parent = tree.parentPosition[i];
+            ordered[i] = parent < 0 ? frames[at(tree.order[i])] : Mat3(ordered[at(parent)] * ordered[i]);
         }
     };
-    parallelInvoke([&] { integrate(w.tree0, w.frames0); }, [&] { integrate(w.tree1, w.frames1); });
+    parallelInvoke([&] { integrate(w.ordered0); }, [&] { integrate(w.ordered1); });
+    w.frames0 = frames;
+    w.frames1 = frames;
+    parallelFor(static_cast<Index>(m), [&](Index i) {
+        w.frames0[at(tree.order[at(i)])] = w.ordered0[at(i)];
+        w.frames1[at(tree.order[at(i)])] = w.ordered1[at(i)];
+    });
     // D1 − D0 per edge (positionStep's arithmetic).
     parallelFor(n, [&](Index p) {
         for (int b = 0; b < 3; ++b) {

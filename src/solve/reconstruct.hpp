@@ -100,6 +100,8 @@ struct SpanningTree {
     std::vector<Index> order;        ///< visit order, roots first; unreached points absent
     std::vector<Index> parent;       ///< #P: the tree parent (kNoPoint: a root or unreached)
     std::vector<signed char> slot;   ///< #P: slot of the edge parent -> point (-1: none)
+    std::vector<Index> position;     ///< #P: index in `order` (-1: unreached)
+    std::vector<Index> parentPosition;  ///< per entry of `order`: its parent's index there (-1: a root)
 };
 SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& roots);
 
@@ -116,8 +118,9 @@ void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e,
 /// Work arrays of connectionChangeSteps, kept between calls (no page faults on large lattices).
 struct ConnectionChangeWorkspace {
     std::array<std::vector<Vec3>, 3> from0, to0, from1, to1;  ///< step vectors per edge (EdgeTransports)
-    std::vector<Mat3> tree0, tree1;                            ///< #P: frame transport of the tree edge into each point
-    std::vector<Mat3> frames0, frames1;                        ///< #P: the frames of each connection
+    std::vector<Mat3> tree0, tree1;      ///< #P: frame transport of the tree edge into each point
+    std::vector<Mat3> ordered0, ordered1;  ///< the tree edges' transports, then the frames, in the tree's order
+    std::vector<Mat3> frames0, frames1;  ///< #P: the frames of each connection
 };
 
 /// The edge steps a connection change asks for (the dynamics' reconstruction, dynamics/stepper):
