@@ -32,6 +32,7 @@ DeformableBodyState DeformableBody::saveState() const {
     s.flexVelocity = mAdot;
     s.halfStep = mHalfStep;
     s.displacement = mDisplacement;
+    s.displacementPrev = mDisplacementPrev;
     s.volumeCachePositions = mVolumeCache.builtFromPositions;
     s.volumeCachePinned = mVolumeCache.builtFromPinned;
     return s;
@@ -40,7 +41,7 @@ DeformableBodyState DeformableBody::saveState() const {
 bool DeformableBody::stateFits(const DeformableBodyState& s) const {
     const std::size_t n = static_cast<std::size_t>(mLat.size());
     bool ok = s.positions.size() == n && s.velocities.size() == n && s.contact.size() == n &&
-              s.contactDepth.size() == n && s.displacement.size() == n &&
+              s.contactDepth.size() == n && s.displacement.size() == n && s.displacementPrev.size() == n &&
               (s.volumeCachePositions.empty() || s.volumeCachePositions.size() == n) &&
               (s.volumeCachePinned.empty() || s.volumeCachePinned.size() == n) &&
               (!s.volumeCachePinned.empty() ? !s.volumeCachePositions.empty() : true);
@@ -66,6 +67,7 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mAdot = s.flexVelocity;
     mHalfStep = s.halfStep;
     mDisplacement = std::move(s.displacement);
+    mDisplacementPrev = std::move(s.displacementPrev);
     // The geometric state is a function of the positions (the step ends by computing it so).
     computeGeometricState(mLat, mX, mState);
     mVolumeCache.builtFromPositions = std::move(s.volumeCachePositions);

@@ -7,8 +7,8 @@
 /// or of the positions (the geometric state, recomputed on restore).
 ///
 /// Which caches change later results, and how each is handled:
-///  - the reconstruction's warm start (the last twist displacement): the CG stops at a relative
-///    tolerance, so its start changes the bits: saved;
+///  - the reconstruction's warm start (the last two twist displacements, extrapolated): the CG
+///    stops at a relative tolerance, so its start changes the bits: saved;
 ///  - the volume projection's multigrid (VolumeProjectionCache): built from one call's normal
 ///    matrix and reused until the active cells change, so it changes the CG's iterates: the
 ///    input of the call that built it is saved and the hierarchy rebuilt from it on restore;
@@ -35,6 +35,7 @@ struct DeformableBodyState {
     Mat3 flex = Mat3::Identity(), flexVelocity = Mat3::Zero();
     bool halfStep = false;
     std::vector<Vec3> displacement;              ///< #P: the reconstruction's warm start
+    std::vector<Vec3> displacementPrev;          ///< #P: the displacement of the step before (extrapolated warm start)
     std::vector<Vec3> volumeCachePositions;      ///< VolumeProjectionCache::builtFromPositions (#P or empty)
     std::vector<unsigned char> volumeCachePinned;  ///< VolumeProjectionCache::builtFromPinned (#P or empty)
 };

@@ -304,6 +304,7 @@ private:
     std::unique_ptr<PoissonSolver> mSolver;
     std::unique_ptr<ReconstructWork> mRecWork;  ///< the solver's spanning tree and work arrays (stepper.cpp)
     std::vector<Vec3> mDisplacement;  ///< last step's twist displacement (warm start)
+    std::vector<Vec3> mDisplacementPrev;  ///< the one before (the warm start extrapolates)
     // Between predict and finish:
     bool mPredicted = false;
     std::vector<Vec3> mXPred;         ///< the predicted positions

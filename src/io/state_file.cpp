@@ -124,6 +124,7 @@ void writeBody(Writer& w, const DeformableBodyState& s) {
     w.value(s.flexVelocity);
     w.value(static_cast<std::uint8_t>(s.halfStep));
     w.array(s.displacement);
+    w.array(s.displacementPrev);
     w.array(s.volumeCachePositions);
     w.array(s.volumeCachePinned);
 }
@@ -151,6 +152,7 @@ void readBody(Reader& r, DeformableBodyState& s) {
     s.flexVelocity = r.value<Mat3>();
     s.halfStep = readBool(r);
     r.array(s.displacement);
+    r.array(s.displacementPrev);
     r.array(s.volumeCachePositions);
     r.array(s.volumeCachePinned);
 }

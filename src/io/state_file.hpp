@@ -29,7 +29,7 @@
 
 namespace dgv {
 
-inline constexpr std::uint32_t kStateFormatVersion = 1;
+inline constexpr std::uint32_t kStateFormatVersion = 2;  ///< 2: the displacement of the step before
 
 struct StateCheckpoint {
     std::string dgvVersion;                  ///< DGV_VERSION_STRING of the writer

@@ -105,6 +105,7 @@ TEST_CASE("body_state: the saved state round-trips and a wrong size does not fit
     const DeformableBodyState t = b->saveState();
     CHECK(sameBits(s.positions, t.positions));
     CHECK(sameBits(s.displacement, t.displacement));
+    CHECK(sameBits(s.displacementPrev, t.displacementPrev));
     CHECK(sameBits(s.volumeCachePositions, t.volumeCachePositions));  // rebuilt from the same input
     CHECK(s.volumeCachePinned == t.volumeCachePinned);
     CHECK(s.centreVelocity == t.centreVelocity);

@@ -39,6 +39,7 @@ StateCheckpoint sample() {
         b.contact.push_back(p % 2 ? 1 : 0);
         b.contactDepth.push_back(p % 2 ? 1e-3 * s : 0);
         b.displacement.push_back(Vec3(0, s * 1e-9, 0));
+        b.displacementPrev.push_back(Vec3(s * 1e-9, 0, 0));
         b.volumeCachePositions.push_back(Vec3(s, s, s));
         b.volumeCachePinned.push_back(p == 0 ? 1 : 0);
     }
@@ -92,6 +93,7 @@ TEST_CASE("state_file: a checkpoint round-trips bit for bit", "[io][checkpoint]"
     CHECK(a.contact == b.contact);
     CHECK(sameBits(a.contactDepth, b.contactDepth));
     CHECK(sameBits(a.displacement, b.displacement));
+    CHECK(sameBits(a.displacementPrev, b.displacementPrev));
     CHECK(sameBits(a.volumeCachePositions, b.volumeCachePositions));
     CHECK(a.volumeCachePinned == b.volumeCachePinned);
     CHECK(b.havePrev);
@@ -131,7 +133,7 @@ TEST_CASE("state_file: truncated, corrupt, foreign and missing files are reporte
     std::string version = bytes;
     version[8] = 9;  // the format version, little-endian u32 after the magic
     std::ofstream(bad, std::ios::binary | std::ios::trunc) << version;
-    CHECK(readStateFile(bad, r) == "format version 9, this dgv reads 1");
+    CHECK(readStateFile(bad, r) == "format version 9, this dgv reads " + std::to_string(kStateFormatVersion));
     std::ofstream(bad, std::ios::binary | std::ios::trunc) << "DGVSTATX and more";
     CHECK(readStateFile(bad, r) == "not a dgv state file");
     CHECK(readStateFile(dir.path() / "absent.dgvstate", r) == "no such file");
