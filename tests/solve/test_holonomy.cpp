@@ -1,5 +1,6 @@
 // Tests of holonomies along lattice paths (src/solve/holonomy.hpp, seed eqs 12-19): constant
-// connections against the closed form, reversal, flat loops, and eq 19 against a known field.
+// connections against the closed form, reversal, flat loops, eq 19 against a known field, and
+// the edge exponentials (expPhi1, edgeSteps) against Eigen's.
 #include <catch2/catch.hpp>
 
 #include "solve/holonomy.hpp"
@@ -10,6 +11,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <random>
 
 using namespace dgv;
@@ -199,54 +201,59 @@ TEST_CASE("holonomy: eq 19 reproduces a known field along a path", "[solve]") {
     REQUIRE(rate(err[1], err[2]) > 1.9);
 }
 
-TEST_CASE("holonomy: expPhi1 agrees with Eigen's Pade exponential", "[solve]") {
-    // exp([[S, v], [0, 0]]) = [[exp(S), phi1(S) v], [0, 1]]: an independent reference.
-    std::mt19937 rng(13);
+namespace {
+
+/// Calls check(S, scale) for 20 generators S of each scale, entries normal with that deviation.
+template <typename Check>
+void forRandomGenerators(unsigned seed, std::initializer_list<Real> scales, Check&& check) {
+    std::mt19937 rng(seed);
     std::normal_distribution<Real> n(0, 1);
-    for (Real scale : {1e-6, 1e-3, 0.02, 0.1, 0.3, 1.0, 4.0}) {
+    for (Real scale : scales)
         for (int trial = 0; trial < 20; ++trial) {
             Mat3 s;
             for (int i = 0; i < 9; ++i) s(i / 3, i % 3) = scale * n(rng);
-            Mat4 aug = Mat4::Zero();
-            aug.topLeftCorner<3, 3>() = s;
-            aug.topRightCorner<3, 1>() = Vec3(0.3, -0.2, 0.7);
-            const Mat4 ref = aug.exp();
-            Mat3 e, phi;
-            expPhi1(s, e, phi);
-            // both are backward stable: relative errors ~ u |S| (squarings) times |exp S|
-            const Real tol = 1e-15 * (4 + 8 * s.norm()) * std::max(Real(1), ref.norm());
-            INFO("scale " << scale << ": " << (e - ref.topLeftCorner<3, 3>()).norm() << " vs " << tol);
-            REQUIRE((e - ref.topLeftCorner<3, 3>()).norm() < tol);
-            REQUIRE((phi * Vec3(0.3, -0.2, 0.7) - ref.topRightCorner<3, 1>()).norm() < tol);
-            // the transport of an edge is the same pair
-            Mat3 t;
-            Vec3 step;
-            edgeTransport(s, 1, t, step);
-            REQUIRE(t == e);
-            REQUIRE(step == phi.col(1));
+            check(s, scale);
         }
-    }
+}
+
+}  // namespace
+
+TEST_CASE("holonomy: expPhi1 agrees with Eigen's Pade exponential", "[solve]") {
+    // exp([[S, v], [0, 0]]) = [[exp(S), phi1(S) v], [0, 1]]: an independent reference.
+    forRandomGenerators(13, {1e-6, 1e-3, 0.02, 0.1, 0.3, 1.0, 4.0}, [](const Mat3& s, Real scale) {
+        Mat4 aug = Mat4::Zero();
+        aug.topLeftCorner<3, 3>() = s;
+        aug.topRightCorner<3, 1>() = Vec3(0.3, -0.2, 0.7);
+        const Mat4 ref = aug.exp();
+        Mat3 e, phi;
+        expPhi1(s, e, phi);
+        // both are backward stable: relative errors ~ u |S| (squarings) times |exp S|
+        const Real tol = 1e-15 * (4 + 8 * s.norm()) * std::max(Real(1), ref.norm());
+        INFO("scale " << scale << ": " << (e - ref.topLeftCorner<3, 3>()).norm() << " vs " << tol);
+        REQUIRE((e - ref.topLeftCorner<3, 3>()).norm() < tol);
+        REQUIRE((phi * Vec3(0.3, -0.2, 0.7) - ref.topRightCorner<3, 1>()).norm() < tol);
+        // the transport of an edge is the same pair
+        Mat3 t;
+        Vec3 step;
+        edgeTransport(s, 1, t, step);
+        REQUIRE(t == e);
+        REQUIRE(step == phi.col(1));
+    });
 }
 
 TEST_CASE("holonomy: edgeSteps gives the step vectors of the edge transport", "[solve]") {
     // from = φ1(S) e_axis and to = φ1(-S) e_axis = exp(-S) φ1(S) e_axis, for generators on
     // both sides of the 1-norm 1/4 where edgeSteps switches from its power sums to expPhi1.
-    std::mt19937 rng(29);
-    std::normal_distribution<Real> n(0, 1);
-    for (Real scale : {1e-8, 1e-3, 0.02, 0.05, 0.08, 0.2, 1.0}) {
-        for (int trial = 0; trial < 20; ++trial) {
-            Mat3 s;
-            for (int i = 0; i < 9; ++i) s(i / 3, i % 3) = scale * n(rng);
-            for (int axis = 0; axis < 3; ++axis) {
-                Mat3 e, phi, eMinus, phiMinus;
-                expPhi1(s, e, phi);
-                expPhi1(-s, eMinus, phiMinus);
-                Vec3 from, to;
-                edgeSteps(s, axis, from, to);
-                INFO("scale " << scale << " axis " << axis);
-                REQUIRE((from - phi.col(axis)).norm() < 4e-16 * phi.norm());
-                REQUIRE((to - phiMinus.col(axis)).norm() < 4e-16 * phiMinus.norm());
-            }
+    forRandomGenerators(29, {1e-8, 1e-3, 0.02, 0.05, 0.08, 0.2, 1.0}, [](const Mat3& s, Real scale) {
+        for (int axis = 0; axis < 3; ++axis) {
+            Mat3 e, phi, eMinus, phiMinus;
+            expPhi1(s, e, phi);
+            expPhi1(-s, eMinus, phiMinus);
+            Vec3 from, to;
+            edgeSteps(s, axis, from, to);
+            INFO("scale " << scale << " axis " << axis);
+            REQUIRE((from - phi.col(axis)).norm() < 4e-16 * phi.norm());
+            REQUIRE((to - phiMinus.col(axis)).norm() < 4e-16 * phiMinus.norm());
         }
-    }
+    });
 }
