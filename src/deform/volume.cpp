@@ -15,8 +15,9 @@ namespace dgv {
 /// What a call derives from the cells alone, and from the cells and the active set; kept in the
 /// cache so that a step's call does none of it (about 20 ms of 190 at 137k cells).
 struct CellTopology {
-    const LatticeCells* cells = nullptr;  ///< the cells it was made for (with their sizes)
+    const LatticeCells* cells = nullptr;  ///< the cells it was made for (with their sizes and grid)
     Index cellCount = 0, pointCount = 0;
+    Vec3i dims = Vec3i::Zero();
     /// Cell neighbours in the 27-stencil (ordered by increasing linear index), -1 if absent.
     std::vector<Index> nbCell;
     /// Cells around each point: slot k = the cell whose corner k is the point (or -1).
@@ -192,11 +193,12 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
     if (settings.cache && !settings.cache->impl) settings.cache->impl = std::make_shared<VolumeProjectionCache::Impl>();
     CellTopology ownTopology;
     CellTopology& topo = settings.cache ? settings.cache->impl->topology : ownTopology;
-    if (topo.cells != &cells || topo.cellCount != nc || topo.pointCount != np) {
+    if (topo.cells != &cells || topo.cellCount != nc || topo.pointCount != np || topo.dims != cells.dims) {
         topo = CellTopology();
         topo.cells = &cells;
         topo.cellCount = nc;
         topo.pointCount = np;
+        topo.dims = cells.dims;
         topo.nbCell.assign(at(nc) * kStencil, -1);
         parallelFor(nc, [&](Index c) {
             const Vec3i& u = cells.lowest[at(c)];
@@ -325,7 +327,7 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
     const std::vector<Vec3i>& coords = topo.coords;
     const Index rows = static_cast<Index>(cellOfRow.size());
     SparseRows& S = topo.structure;
-    S.value.assign(S.column.size(), 0);
+    S.value.resize(S.column.size());  // every entry is written by each fill (below)
     std::vector<Real> rhs(at(rows)), sol(at(rows), 0);
     CgWorkspace workspace;
     // The multigrid: from the cache when it was built for these active cells, else built on
