@@ -118,12 +118,12 @@ SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& 
             tree.order.push_back(q);
         }
     }
-    tree.position.assign(at(lat.size()), -1);
-    for (std::size_t i = 0; i < tree.order.size(); ++i) tree.position[at(tree.order[i])] = static_cast<Index>(i);
+    std::vector<Index> position(at(lat.size()), -1);  // index in `order`
+    for (std::size_t i = 0; i < tree.order.size(); ++i) position[at(tree.order[i])] = static_cast<Index>(i);
     tree.parentPosition.resize(tree.order.size());
     for (std::size_t i = 0; i < tree.order.size(); ++i) {
         const Index parent = tree.parent[at(tree.order[i])];
-        tree.parentPosition[i] = parent == kNoPoint ? -1 : tree.position[at(parent)];
+        tree.parentPosition[i] = parent == kNoPoint ? -1 : position[at(parent)];
     }
     return tree;
 }
@@ -316,8 +316,13 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
         }
     };
     parallelInvoke([&] { integrate(w.ordered0); }, [&] { integrate(w.ordered1); });
-    w.frames0 = frames;
-    w.frames1 = frames;
+    if (m < at(n)) {  // points the tree misses (a component without a root) keep `frames`
+        w.frames0 = frames;
+        w.frames1 = frames;
+    } else {
+        w.frames0.resize(at(n));
+        w.frames1.resize(at(n));
+    }
     parallelFor(static_cast<Index>(m), [&](Index i) {
         w.frames0[at(tree.order[at(i)])] = w.ordered0[at(i)];
         w.frames1[at(tree.order[at(i)])] = w.ordered1[at(i)];

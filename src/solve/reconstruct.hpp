@@ -100,7 +100,6 @@ struct SpanningTree {
     std::vector<Index> order;        ///< visit order, roots first; unreached points absent
     std::vector<Index> parent;       ///< #P: the tree parent (kNoPoint: a root or unreached)
     std::vector<signed char> slot;   ///< #P: slot of the edge parent -> point (-1: none)
-    std::vector<Index> position;     ///< #P: index in `order` (-1: unreached)
     std::vector<Index> parentPosition;  ///< per entry of `order`: its parent's index there (-1: a root)
 };
 SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& roots);
