@@ -154,7 +154,7 @@ TEST_CASE("reconstruct: round trips through finite-difference connections conver
 }
 
 TEST_CASE("reconstruct: connectionChangeSteps matches transports, tree frames and position steps", "[solve]") {
-    // Two connections of a ball (a twist and a bend of it, by finite differences): the edge-step
+    // Two connections of a ball (two smooth deformations of it, by finite differences): the edge-step
     // differences of the one-pass routine against the same built from EdgeTransports,
     // integrateFramesAlongTree and positionStep, to round-off (power sums against Horner).
     const Lattice lat = sphereLattice(6, 0.1);
