@@ -184,7 +184,37 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
     const Index np = static_cast<Index>(positions.size());
     DGV_CHECK_EQ(static_cast<Index>(restVolumes.size()), nc);
     DGV_CHECK(pinned.empty() || static_cast<Index>(pinned.size()) == np);
-    auto isPinned = [&](Index p) { return !pinned.empty() && pinned[at(p)] != 0; };
+    const std::vector<Vec3>* slide = settings.slideNormals;
+    DGV_CHECK(!slide || static_cast<Index>(slide->size()) == np);
+    // pinned[p]: 0 free, 1 fixed, kSlides: only along the plane normal to (*slide)[p]
+    auto isPinned = [&](Index p) { return !pinned.empty() && pinned[at(p)] == 1; };
+    auto slides = [&](Index p) { return !pinned.empty() && pinned[at(p)] == kSlides; };
+    const std::vector<Real>* weights = settings.weights;
+    DGV_CHECK(!weights || static_cast<Index>(weights->size()) == np);
+    // The step in the metric of the weights: gradients scaled by sqrt(w) at each corner (the
+    // normal matrix is then J W J^T) and the displacements by sqrt(w) again (dx = -W J^T λ).
+    std::vector<Real> rootW;
+    if (weights) {
+        rootW.resize(at(np));
+        for (Index p = 0; p < np; ++p) {
+            DGV_CHECK((*weights)[at(p)] > 0);
+            rootW[at(p)] = std::sqrt((*weights)[at(p)]);
+        }
+    }
+    bool anySliding = false;
+    for (Index p = 0; p < Index(pinned.size()); ++p) {
+        DGV_CHECK(pinned[at(p)] <= 1 || (pinned[at(p)] == kSlides && slide));
+        anySliding = anySliding || pinned[at(p)] == kSlides;
+    }
+    // A corner's share of a cell's gradient: zero if fixed, the tangential part if it slides.
+    auto constrain = [&](Index p, Vec3& g) {
+        if (isPinned(p)) {
+            g.setZero();
+        } else if (slides(p)) {
+            const Vec3& nrm = (*slide)[at(p)];
+            g -= g.dot(nrm) * nrm;
+        }
+    };
 
     VolumeProjectionReport report;
     const std::vector<Vec3> start = positions;
@@ -252,9 +282,11 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
             r[at(c)] = v / v0 - 1;
             bool any = false;
             for (std::size_t k = 0; k < 8; ++k) {
-                if (isPinned(cells.corners[at(c)][k])) g[k].setZero();
-                else any = true;
+                const Index p = cells.corners[at(c)][k];
+                if (!isPinned(p)) any = true;
+                constrain(p, g[k]);
                 g[k] /= v0;
+                if (weights) g[k] *= rootW[at(p)];
             }
             active[at(c)] = any ? 1 : 0;
         });
@@ -358,27 +390,49 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
         // (J J^T)_cd = sum over shared corners of grad_c . grad_d, each pair once (on the row of
         // the later cell: slots up to the centre) and written to both positions: exactly
         // symmetric, half the products.
-        parallelFor(rows, [&](Index i) {
-            const Index c = cellOfRow[at(i)];
-            const std::size_t base = at(c) * kStencil;
-            for (int e = S.start[at(i)]; e < S.start[at(i) + 1]; ++e) {
-                const int s = slotOf[static_cast<std::size_t>(e)];
-                if (s > kStencil / 2) break;  // entries are in slot order
-                const Index d = nbCell[base + static_cast<std::size_t>(s)];
-                Real sum = 0;
-                for (int k = 0; k < 8; ++k) {
-                    const int kd = sharedCorner[s][k];
-                    if (kd >= 0) sum += grad[at(c)][static_cast<std::size_t>(k)].dot(grad[at(d)][static_cast<std::size_t>(kd)]);
+        auto fill = [&](const std::vector<std::array<Vec3, 8>>& gr) {
+            parallelFor(rows, [&](Index i) {
+                const Index c = cellOfRow[at(i)];
+                const std::size_t base = at(c) * kStencil;
+                for (int e = S.start[at(i)]; e < S.start[at(i) + 1]; ++e) {
+                    const int s = slotOf[static_cast<std::size_t>(e)];
+                    if (s > kStencil / 2) break;  // entries are in slot order
+                    const Index d = nbCell[base + static_cast<std::size_t>(s)];
+                    Real sum = 0;
+                    for (int k = 0; k < 8; ++k) {
+                        const int kd = sharedCorner[s][k];
+                        if (kd >= 0) sum += gr[at(c)][static_cast<std::size_t>(k)].dot(gr[at(d)][static_cast<std::size_t>(kd)]);
+                    }
+                    S.value[static_cast<std::size_t>(e)] = sum;
+                    S.value[static_cast<std::size_t>(topo.mirror[static_cast<std::size_t>(e)])] = sum;
                 }
-                S.value[static_cast<std::size_t>(e)] = sum;
-                S.value[static_cast<std::size_t>(topo.mirror[static_cast<std::size_t>(e)])] = sum;
-            }
-        });
+            });
+        };
+        const bool build = settings.multigrid && (!mg || (!settings.reuseMultigrid && !cache));
+        if (build && anySliding) {
+            // The hierarchy is built as if the sliding points were free (it depends on the
+            // positions and the fixed points alone, which a checkpoint keeps): the sliding
+            // corners' full gradients, here only.
+            std::vector<std::array<Vec3, 8>> full(at(nc));
+            parallelFor(nc, [&](Index c) {
+                std::array<Vec3, 8>& g = full[at(c)];
+                (void)hexVolumeGradient(gatherCorners(cells, positions, c), g);
+                for (std::size_t k = 0; k < 8; ++k) {
+                    const Index p = cells.corners[at(c)][k];
+                    if (isPinned(p)) g[k].setZero();
+                    g[k] /= restVolumes[at(c)];
+                    if (weights) g[k] *= rootW[at(p)];
+                }
+            });
+            fill(full);
+        } else {
+            fill(grad);
+        }
         parallelFor(rows, [&](Index i) {
             rhs[at(i)] = r[at(cellOfRow[at(i)])];
             sol[at(i)] = 0;
         });
-        if (settings.multigrid && (!mg || (!settings.reuseMultigrid && !cache))) {
+        if (build) {
             ownMg.reset();
             ownMg = std::make_unique<AggregationMultigrid>(S, coords, mgSettings);
             if (cache) {
@@ -386,9 +440,12 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
                 mg = cache->mg.get();
                 settings.cache->builtFromPositions = start;  // what the hierarchy was built from
                 settings.cache->builtFromPinned = pinned;
+                for (unsigned char& f : settings.cache->builtFromPinned)
+                    if (f == kSlides) f = 0;
             } else {
                 mg = ownMg.get();
             }
+            if (anySliding) fill(grad);  // the constrained matrix for the solve
         }
         // Inexact Gauss-Newton: no more linear accuracy than the step can use. The step leaves
         // about err^2 (the quadratic term) plus eta err, so eta ~ err on the way and
@@ -405,13 +462,13 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
         });
         // dx = -J^T lambda, gathered per point.
         parallelFor(np, [&](Index p) {
-            if (isPinned(p)) return;
+            if (isPinned(p)) return;  // a sliding point's gradients are tangential already
             Vec3 dx = Vec3::Zero();
             for (std::size_t k = 0; k < 8; ++k) {
                 const Index c = cellsOfPoint[at(p)][k];
                 if (c >= 0) dx -= lambda[at(c)] * grad[at(c)][k];
             }
-            positions[at(p)] += dx;
+            positions[at(p)] += weights ? Vec3(rootW[at(p)] * dx) : dx;
         });
         // Local polish: nonlinear Gauss-Seidel (Kaczmarz) sweeps over the cells in 8 parity
         // colours (cells of one colour share no corner): each cell moves its free corners along
@@ -424,13 +481,16 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
                     std::array<Vec3, 8> g;
                     const Real v = hexVolumeGradient(gatherCorners(cells, positions, c), g);
                     Real gg = 0;
+                    std::array<Real, 8> w;
                     for (std::size_t k = 0; k < 8; ++k) {
-                        if (isPinned(cells.corners[at(c)][k])) g[k].setZero();
-                        gg += g[k].squaredNorm();
+                        const Index p = cells.corners[at(c)][k];
+                        constrain(p, g[k]);
+                        w[k] = weights ? (*weights)[at(p)] : Real(1);
+                        gg += w[k] * g[k].squaredNorm();
                     }
                     if (!(gg > 0)) return;
                     const Real step = (restVolumes[at(c)] - v) / gg;
-                    for (std::size_t k = 0; k < 8; ++k) positions[at(cells.corners[at(c)][k])] += step * g[k];
+                    for (std::size_t k = 0; k < 8; ++k) positions[at(cells.corners[at(c)][k])] += (step * w[k]) * g[k];
                 });
         // The error alone: the gradients are only needed if another iteration follows (about
         // 5 ms of writing them at 137k cells, where one iteration is the rule).

@@ -87,7 +87,22 @@ struct VolumeProjectionSettings {
     int localSweeps = 2;
     /// Optional: keeps the multigrid from call to call (setup is most of a call's cost).
     VolumeProjectionCache* cache = nullptr;
+    /// #P unit normals, required when some pinned flag is kSlides: such a point moves only in
+    /// the plane normal to its normal (a contact point on a collider's surface). The
+    /// projection's push then has no net component along that plane, as a frictionless
+    /// surface's reaction; a point held in all directions takes one (measured: a jelly resting
+    /// on the ground accelerated sideways at 0.04 m/s^2, or with friction sheared its contact
+    /// layer until it folded; docs/math.md).
+    const std::vector<Vec3>* slideNormals = nullptr;
+    /// Optional #P weights w_p > 0 (the points' inverse masses, relative): the step minimises
+    /// Σ_p |δx_p|² / w_p instead of Σ_p |δx_p|², so it moves no centre of mass and changes no
+    /// momentum (each cell's push sums to zero over its corners, and mass-weighted displacements
+    /// are what momentum counts). Empty: all 1.
+    const std::vector<Real>* weights = nullptr;
 };
+
+/// The pinned flag of a point that slides (VolumeProjectionSettings::slideNormals); 1: fixed.
+constexpr unsigned char kSlides = 2;
 
 /// Outcome of projectVolumes. Numerical trouble (no convergence) is reported, not thrown.
 struct [[nodiscard]] VolumeProjectionReport {
@@ -109,11 +124,11 @@ struct [[nodiscard]] VolumeProjectionReport {
 /// aggregates (or Jacobi), each only as accurate as the step can use (inexact Gauss-Newton);
 /// after each step `localSweeps` nonlinear Gauss-Seidel sweeps over the cells remove localised
 /// peaks. From 3e-2 errors: 2 iterations to 1e-5, 3 to 1e-12 (docs/math.md). Pinned points
-/// (pinned[p] != 0; may be empty = none) never move; cells with all corners pinned are left out
-/// (counted in `unconstrainable`).
+/// (pinned[p] == 1; may be empty = none) never move, sliding ones (pinned[p] == kSlides) move only
+/// along their plane; cells with all corners fixed are left out (counted in `unconstrainable`).
 /// @param[in]     cells        cells of the lattice the positions belong to
 /// @param[in]     restVolumes  #C target volumes (> 0), world units^3
-/// @param[in]     pinned       #P flags, or empty
+/// @param[in]     pinned       #P flags (0 free, 1 fixed, kSlides), or empty
 /// @param[in,out] positions    #P world positions, updated in place
 /// Deterministic for any thread count.
 VolumeProjectionReport projectVolumes(const LatticeCells& cells,

@@ -345,3 +345,84 @@ TEST_CASE("volume: the dynamics' tolerance 1e-5 takes two Gauss-Newton iteration
     CHECK(rc.iterations <= 2);
     CHECK(rc.linearIterations <= r.linearIterations + 3);
 }
+
+TEST_CASE("volume: weighted by inverse masses with sliding contact points, the projection moves no momentum along "
+          "the surface",
+          "[deform][volume][contact]") {
+    // A ball lying on the plane y = y0 (its lowest layer), deformed off-centre. Masses are each
+    // point's share of its cells (boundary points lighter), the weights their inverses. The
+    // lowest layer slides on the plane: it may move in x and z only. Each cell's push sums to
+    // zero over its corners in every direction the constraints leave free (translation
+    // invariance of the volume), so the mass-weighted displacement has no x or z part; the
+    // plane takes the y part (a reaction). Unweighted, or with the layer held in all
+    // directions, the push has a tangential part: on a resting body, a steady sideways force.
+    const Real R = 6.3;
+    const Lattice lat = sphereLattice(R);
+    const LatticeCells cells = buildCells(lat);
+    const std::vector<Vec3> x0 = restPositions(lat);
+    const std::vector<Real> v0 = cellVolumes(cells, x0);
+    const Index n = lat.size();
+    std::vector<Real> mass(static_cast<std::size_t>(n), 0), weight(static_cast<std::size_t>(n));
+    for (Index c = 0; c < cells.size(); ++c)
+        for (Index p : cells.corners[static_cast<std::size_t>(c)]) mass[static_cast<std::size_t>(p)] += 1.0 / 8;
+    for (Index p = 0; p < n; ++p) weight[p] = mass[p] > 0 ? 1 / mass[p] : 1;
+    int lowest = 1 << 30;
+    for (const Vec3i& u : lat.coords) lowest = std::min(lowest, u.y());
+    std::vector<unsigned char> flags(static_cast<std::size_t>(n), 0);
+    const std::vector<Vec3> normals(static_cast<std::size_t>(n), Vec3::UnitY());
+    Index sliding = 0;
+    for (Index p = 0; p < n; ++p)
+        if (lat.coords[p].y() <= lowest + 1) {  // the two lowest layers: some cells have 8 such corners
+            flags[p] = kSlides;
+            ++sliding;
+        }
+    REQUIRE(sliding > 20);
+    const std::vector<Vec3> start =
+        mapPoints(mapPoints(x0, twistMap(0.03, Vec3(1.3, 0, -0.7))), stretchMap(0.015, Vec3(2, 1, 0.5), 9.0));
+    auto momentum = [&](const std::vector<Vec3>& x, Real& moved) {
+        Vec3 sum = Vec3::Zero();
+        moved = 0;
+        for (Index p = 0; p < n; ++p) {
+            sum += mass[p] * (x[p] - start[p]);
+            moved += mass[p] * (x[p] - start[p]).norm();
+        }
+        return sum;
+    };
+    VolumeProjectionSettings s;
+    s.tolerance = 1e-12;
+    s.slideNormals = &normals;
+    s.weights = &weight;
+    std::vector<Vec3> x = start;
+    const VolumeProjectionReport r = projectVolumes(cells, v0, flags, x, s);
+    Real moved = 0;
+    const Vec3 p = momentum(x, moved);
+    // the old rule: the contact layer held in every direction, unweighted
+    std::vector<unsigned char> held(flags);
+    for (unsigned char& f : held) f = f ? 1 : 0;
+    std::vector<Vec3> y = start;
+    (void)projectVolumes(cells, v0, held, y);
+    Real movedOld = 0;
+    const Vec3 pOld = momentum(y, movedOld);
+    if (verbose())
+        std::printf("sliding, weighted: %.3e -> %.3e in %d GN; sum m dx = (%.2e, %.2e, %.2e) of sum m |dx| %.3e; "
+                    "held, unweighted: (%.2e, %.2e, %.2e) of %.3e\n",
+                    r.maxErrorBefore, r.maxErrorAfter, r.iterations, p.x(), p.y(), p.z(), moved, pOld.x(), pOld.y(),
+                    pOld.z(), movedOld);
+    CHECK(r.converged);
+    CHECK(r.maxErrorBefore > 1e-3);
+    CHECK(r.maxErrorAfter <= 1e-12);
+    CHECK(r.unconstrainable == 0);  // a cell of sliding corners is still corrected
+    for (Index q = 0; q < n; ++q)
+        if (flags[q]) REQUIRE(x[q].y() == start[q].y());  // on the plane, exactly
+    CHECK(std::abs(p.x()) <= 1e-12 * moved);
+    CHECK(std::abs(p.z()) <= 1e-12 * moved);
+    CHECK(std::abs(p.y()) > 1e-3 * moved);  // the plane's reaction
+    CHECK(std::hypot(pOld.x(), pOld.z()) > 1e-3 * movedOld);
+    // one thread gives the same bytes
+    std::vector<Vec3> z = start;
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        (void)projectVolumes(cells, v0, flags, z, s);
+    }
+    for (Index q = 0; q < n; ++q) REQUIRE(x[q] == z[q]);
+}
