@@ -14,6 +14,7 @@ VolumeProjectionSettings DeformableBody::volumeSettings() {
     VolumeProjectionSettings vs;
     vs.tolerance = mSet.volumeTolerance;
     vs.cache = &mVolumeCache;
+    vs.weights = &mVolumeWeight;
     return vs;
 }
 

@@ -233,6 +233,11 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
         mMass = pointMasses(mLat, mSet.density, MassRule::Voxel);
         mTotalMass = mSet.density * std::pow(mLat.spacing, 3) * static_cast<Real>(n);
     }
+    // The volume projection's metric: the inverse masses relative to the largest (a point in
+    // no cell has no mass and no volume gradient; any weight serves).
+    const Real heaviest = *std::max_element(mMass.begin(), mMass.end());
+    mVolumeWeight.resize(at(n));
+    for (Index p = 0; p < n; ++p) mVolumeWeight[at(p)] = mMass[at(p)] > 0 ? heaviest / mMass[at(p)] : Real(1);
     mC = centreOfMass(mMass, mX);
     mRestRel.resize(at(n));
     Mat3 S0 = Mat3::Zero();
@@ -618,6 +623,24 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 if (strain * scale > kMaxContactStrain) scale = kMaxContactStrain / strain;
                 dc *= scale;
                 dA *= scale;
+                // The jump dA also moves the arms of the body's angular momentum L = skew(Ȧ S Aᵀ)
+                // (S the rest second moment): read off the positions, the velocity after it gives
+                // (Ȧ + dA/δt) S (A + dA)ᵀ, whose cross term Ȧ S dAᵀ is a torque no impulse exerts
+                // (a body resting on the ground, spun by it each step: docs/math.md). It is taken
+                // out by a rotation of the jump, dA −= δt [ω]× A with ½ (tr B − B) ω =
+                // vee skew(Ȧ S dAᵀ), B = A S Aᵀ (vee skew([ω]× B) = ½ (tr B − B) ω).
+                {
+                    const Mat3 S = mS0inv.inverse();
+                    const Mat3 cross = mAdot * S * dA.transpose();
+                    const Mat3 k = Real(0.5) * (cross - cross.transpose());
+                    const Vec3 spinUp(k(2, 1), k(0, 2), k(1, 0));
+                    const Mat3 B = aNew * S * aNew.transpose();
+                    const Mat3 inertia = Real(0.5) * (B.trace() * Mat3::Identity() - B);
+                    const Vec3 w = inertia.ldlt().solve(spinUp);
+                    Mat3 wx;
+                    wx << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+                    dA -= dt * wx * aNew;
+                }
                 const Sl3Result r1 = projectToSL3(aNew + dA);
                 if (r1.ok) {
                     const Vec3 c1 = cNew + dc;
@@ -684,8 +707,37 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     // 6. Volume, cell by cell, with pinned and contact points held.
     t = Clock::now();
     if (mSet.projectVolume && mCells.size() > 0) {
+        // Pins are fixed; a contact point slides on its collider's surface (the plane normal to
+        // the gradient of the responding collider it is nearest): the projection's push then
+        // has no net tangential part, as a surface's reaction (docs/math.md, "Contact points
+        // slide in the volume projection"). Held in all directions, it gave a resting body a
+        // steady sideways push: without friction it accelerated, with friction its contact
+        // layer sheared until it folded.
         std::vector<unsigned char> held(at(n));
-        for (Index p = 0; p < n; ++p) held[at(p)] = (mPinned[at(p)] || mContact[at(p)]) ? 1 : 0;
+        std::vector<Vec3> slideNormal;
+        if (report.contacts > 0) slideNormal.assign(at(n), Vec3::Zero());
+        parallelFor(n, [&](Index p) {
+            held[at(p)] = mPinned[at(p)] ? 1 : 0;
+            if (mPinned[at(p)] || !mContact[at(p)]) return;
+            Real nearest = std::numeric_limits<Real>::infinity();
+            Vec3 normal = Vec3::Zero();
+            for (std::size_t c = 0; c < colliders.size(); ++c) {
+                if (!responds[c][at(p)]) continue;
+                Vec3 g;
+                const Real phi = colliders[c].evaluate(xNew[at(p)], g);
+                const Real gn = g.norm();
+                if (gn > 0 && phi / gn < nearest) {
+                    nearest = phi / gn;
+                    normal = g / gn;
+                }
+            }
+            if (normal.isZero()) {
+                held[at(p)] = 1;
+            } else {
+                held[at(p)] = kSlides;
+                slideNormal[at(p)] = normal;
+            }
+        });
         // A cell whose eight corners are all held could not be corrected at all: a fast body
         // can put whole cells inside a collider in one step, and the response flattens them
         // onto its surface (ring_drop's landing: one cell 5.7% off; a ball landing at 8 m/s:
@@ -722,7 +774,8 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             for (Index id : release)
                 if (!mPinned[at(id)]) held[at(id)] = 0;
         }
-        const VolumeProjectionSettings vs = volumeSettings();  // also used by restoreState
+        VolumeProjectionSettings vs = volumeSettings();  // also used by restoreState
+        if (!slideNormal.empty()) vs.slideNormals = &slideNormal;
         const VolumeProjectionReport vr = projectVolumes(mCells, mRestVolumes, held, xNew, vs);
         report.volumeIterations = vr.iterations;
         report.volumeConverged = vr.converged;
@@ -755,7 +808,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         if (report.contacts > 0) {
             // restitution on the normal part of the body velocity, about the mean contact normal
             Vec3 nSum = Vec3::Zero(), restSum = Vec3::Zero();
-            Real e = 0;
+            Real e = 0, mu = 0;
             Index count = 0;
             for (Index p = 0; p < n; ++p) {
                 if (!mContact[at(p)]) continue;
@@ -766,6 +819,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                         nSum += g;
                         restSum += mRestRel[at(p)];
                         e += col.restitution;
+                        mu += col.friction;
                         ++count;
                         break;
                     }
@@ -784,8 +838,14 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 const Vec3 nrm = nSum.normalized();
                 const Real vn = vcBefore.dot(nrm);
                 if (vn < 0) {
-                    const Vec3 tangential = mVc - mVc.dot(nrm) * nrm;
-                    mVc = tangential - (e / static_cast<Real>(count)) * vn * nrm;
+                    // Coulomb friction on the centre: the tangential velocity loses up to the
+                    // friction coefficient times the normal velocity the contact took out (a body
+                    // resting under gravity: μ g δt a step, so a slow creep stops dead).
+                    const Real restitution = e / static_cast<Real>(count), friction = mu / static_cast<Real>(count);
+                    Vec3 tangential = mVc - mVc.dot(nrm) * nrm;
+                    const Real vt = tangential.norm(), brake = friction * (1 + restitution) * (-vn);
+                    tangential *= vt > brake ? (vt - brake) / vt : Real(0);
+                    mVc = tangential - restitution * vn * nrm;
                 }
                 const Vec3 xbar = restSum / static_cast<Real>(count);
                 const Real lift = nrm.dot(mAdot * xbar);  // > 0: the patch leaves the collider

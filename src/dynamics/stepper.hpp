@@ -281,6 +281,7 @@ private:
     Real mRestTotal = 0;
     std::vector<Real> mMass;
     Real mTotalMass = 0;
+    std::vector<Real> mVolumeWeight;  ///< the volume projection's weights: heaviest mass / mass
     std::vector<Vec3> mRestRel;   ///< X̃: rest position about the rest centre of mass
     Mat3 mS0inv = Mat3::Identity();
     std::vector<unsigned char> mPinned;

@@ -162,7 +162,7 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
         int steps = 0;
         std::string fault;
         Real maxDg2 = 0, lateDg2 = 0, maxKe = 0, lateKe = 0, maxErr = 0;  // late: the last second
-        Real dg2HalfSecondBefore = 0, dg2End = 0;  // at 2.5 s and at 3 s
+        Real dg2At[3] = {0, 0, 0};  // at 1, 2 and 3 s
         long limited = 0;
     };
     const int steps = 288;  // 3 s at 96 steps/s
@@ -182,8 +182,7 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
                 o.lateDg2 = std::max(o.lateDg2, rep.sumDeltaGamma2);
                 o.lateKe = std::max(o.lateKe, rep.kineticEnergy);
             }
-            if (s == steps - 49) o.dg2HalfSecondBefore = rep.sumDeltaGamma2;
-            if (s == steps - 1) o.dg2End = rep.sumDeltaGamma2;
+            if (s % 96 == 95) o.dg2At[s / 96] = rep.sumDeltaGamma2;
             if (verbose() && s % 48 == 47)
                 std::printf("  anti-windup %d, t %.1f s: sum dGamma^2 %.3g, KE %.3g J, limited %ld\n", antiWindup ? 1 : 0,
                             (s + 1) / 96.0, rep.sumDeltaGamma2, rep.kineticEnergy, static_cast<long>(rep.limitedPoints));
@@ -200,14 +199,123 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
     CHECK(on.steps == steps);
     CHECK(on.fault.empty());
     CHECK(on.limited == 0);
-    // δΓ settles to a small fixed point (what the memory asks times the realised fraction):
-    // measured 0.0019 at 0.5 s, 0.0058 at 2.5 s, 0.0061 at 3 s; without the anti-windup 0.37 at
-    // 0.5 s, 2.4 at 3 s, and the body folds.
+    // δΓ settles to a small fixed point (what the memory asks times the realised fraction),
+    // approached more slowly every second: measured 1.1e-4, 2.7e-4 and 4.0e-4 at 1, 2 and 3 s,
+    // 1.1e-3 at 15 s (it was 0.0058 at 2.5 s and 0.0061 at 3 s before the contact points slid
+    // in the volume projection); without the anti-windup 0.27 at 1 s, 1.1 at 2 and 3 s.
     CHECK(on.maxDg2 < 0.02);
-    CHECK(on.dg2End < 1.1 * on.dg2HalfSecondBefore);
+    CHECK(on.dg2At[2] - on.dg2At[1] < on.dg2At[1] - on.dg2At[0]);
     CHECK(on.lateKe < 0.05 * on.maxKe);  // it settles
     CHECK(on.maxErr <= 1e-4);
     // Without it: the twist winds up (the run may fault before the end).
     CHECK(std::max(off.maxDg2, off.lateDg2) > 100 * on.maxDg2);
     CHECK(off.limited > 0);
+}
+
+TEST_CASE("contact: a jelly resting on a frictionless ground stays where it is; with friction it settles",
+          "[dynamics][contact]") {
+    // A lopsided voxel ball (its centre off the grid, as a voxelised mesh is) set down on the
+    // ground under gravity, k = 300/s², damping 2/s (docs/math.md, "Contact points slide in the
+    // volume projection"). The volume projection restores the cells the contact squeezes; held
+    // in every direction and unweighted, its push had a tangential part: a steady sideways
+    // force. Measured with `dgv simulate` on a ball of 0.3 m at 12 voxels across: without
+    // friction it slid off at 0.04 m/s² (0.3 m/s after 12 s); with friction 0.5 its contact
+    // layer sheared until the lattice folded at 10 s (6.6 s at 24 voxels across), with
+    // friction 1 at 3 s. Now the contact points slide on the ground in the projection and its
+    // metric is the masses': nothing pushes the body along the ground.
+    const int r = 5;
+    const Real h = 0.06;
+    const Lattice lat = test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
+    const ForceField g = test::gravityField();
+    const int steps = 480;  // 5 s at 96 steps/s
+    struct Outcome {
+        int steps = 0;
+        std::string fault;
+        Real maxKe = 0, lateKe = 0, maxErr = 0, slide = 0;  // slide: largest horizontal speed of the centre after 1 s
+        Vec3 settled = Vec3::Zero(), end = Vec3::Zero();  // the centre at 1 s and at the end
+    };
+    auto run = [&](Real friction) {
+        Outcome o;
+        DynamicsSettings set;
+        set.damping = 2;
+        set.shapeStiffness = 300;
+        Collider ground = test::groundPlane();
+        ground.friction = friction;
+        DeformableBody body(lat, restPositions(lat), set);
+        o.fault = stepAt96(body, g, {ground}, steps, o.steps, [&](int s, const StepReport& rep) {
+            o.maxKe = std::max(o.maxKe, rep.kineticEnergy);
+            o.maxErr = std::max(o.maxErr, rep.maxCellVolumeError);
+            if (s >= 96) {
+                const Vec3 v = body.centreVelocity();
+                o.slide = std::max(o.slide, std::hypot(v.x(), v.z()));
+            }
+            if (s == 95) o.settled = body.centre();
+            if (s >= steps - 96) o.lateKe = std::max(o.lateKe, rep.kineticEnergy);
+            o.end = body.centre();
+        });
+        return o;
+    };
+    for (Real friction : {0.0, 0.5, 1.0}) {
+        const Outcome o = run(friction);
+        const Real moved = std::hypot(o.end.x() - o.settled.x(), o.end.z() - o.settled.z());
+        if (verbose())
+            std::printf("resting jelly, friction %.1f: %d steps %s, KE peak %.3g J, last second %.3g J, largest "
+                        "horizontal speed after 1 s %.2e m/s, moved %.2e m in 4 s, max cell error %.2e\n",
+                        friction, o.steps, o.fault.c_str(), o.maxKe, o.lateKe, o.slide, moved, o.maxErr);
+        INFO("friction " << friction << ": " << o.fault);
+        CHECK(o.steps == steps);
+        CHECK(o.slide < 1e-4);        // measured 2e-6 .. 6e-6
+        CHECK(moved < 0.01 * h);      // measured under 1e-5 voxels
+        CHECK(o.lateKe < 1e-3 * o.maxKe);  // it comes to rest
+        CHECK(o.maxErr <= 1e-4);
+    }
+}
+
+TEST_CASE("contact: a jelly spinning on a frictionless ground is not spun up by it", "[dynamics][contact]") {
+    // A lopsided voxel ball set down on the ground spinning at 1 rad/s about the vertical
+    // (docs/math.md, "The affine contact response spun a resting body up"). The ground pushes
+    // along y only and gravity acts at the centre, so nothing exerts a torque about y: L_y =
+    // Σ m ((x − c) × v)_y should be kept while the body sags and its spin rate changes with its
+    // moment of inertia. Reading the velocity off the positions after the contact's affine jump
+    // added the cross term skew(Ȧ S dAᵀ), a torque proportional to the spin, every step: L_y
+    // grew 2.66 → 8.80 in these 3 s (and a resting ball, from round-off, turned after 25 s).
+    // What is left is a loss, not a gain: L_y falls 12 % in 3 s (2.3 % with k = 0; the shape
+    // memory's part is open, docs/math.md).
+    const int r = 5;
+    const Real h = 0.06;
+    const Lattice lat = test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
+    DynamicsSettings set;
+    set.damping = 2;
+    set.shapeStiffness = 300;
+    Collider ground = test::groundPlane();
+    ground.friction = 0;
+    DeformableBody body(lat, restPositions(lat), set);
+    body.setRigidVelocity(Vec3::Zero(), Vec3(0, 1, 0));
+    auto spin = [&]() {
+        const Vec3 c = body.centre();
+        Real L = 0;
+        for (Index p = 0; p < lat.size(); ++p)
+            L += body.masses()[p] * (body.positions()[p] - c).cross(body.velocities()[p]).y();
+        return L;
+    };
+    const int steps = 288;  // 3 s at 96 steps/s
+    Real first = 0, lo = 0, hi = 0, stretch = 0;
+    int done = 0;
+    const std::string fault = stepAt96(body, test::gravityField(), {ground}, steps, done, [&](int s, const StepReport&) {
+        const Real L = spin();
+        if (s == 0) first = lo = hi = L;
+        lo = std::min(lo, L);
+        hi = std::max(hi, L);
+        stretch = std::max(stretch, (body.flex().transpose() * body.flex() - Mat3::Identity()).norm());
+    });
+    if (verbose())
+        std::printf("spinning jelly on a frictionless ground: L_y %.6g after the first step, %.6g .. %.6g over 3 s "
+                    "(%d steps %s), largest |AᵀA − 1| %.3f\n",
+                    first, lo, hi, done, fault.c_str(), stretch);
+    INFO(fault);
+    REQUIRE(done == steps);
+    CHECK(first > 0);
+    CHECK(stretch > 0.3);  // it sags: the spin rate alone would not be conserved
+    CHECK(hi <= (1 + 1e-3) * first);  // never more: measured 2e-4 above it, in the first steps
+    CHECK(lo > 0.85 * first);         // measured 0.882 of it at the end
 }

@@ -181,6 +181,8 @@ namespace {
 /// final Σ|δΓ|², and checks every step for faults, non-finite positions and inverted cells.
 struct PushRun {
     Real peak = 0, last = 0, maxErr = 0, maxKinetic = 0;
+    Real maxCoast = 0;  ///< largest Σ|δΓ|² after the push
+    Real settled = 0;   ///< Σ|δΓ|² 2,000 steps after the push (the flex has settled)
     Index inverted = 0;
     bool finite = true;
 };
@@ -199,6 +201,8 @@ PushRun pushThenCoast(const DynamicsSettings& set, Real push, int steps) {
         const StepReport r = body.step(burst, s < 20 ? 0.5 : 2.0, 1.0 / 240, {});
         if (!r.fault.empty()) FAIL("step " << s << ": " << r.fault);
         if (s == 19) run.peak = r.sumDeltaGamma2;
+        if (s > 19) run.maxCoast = std::max(run.maxCoast, r.sumDeltaGamma2);
+        if (s == 19 + 2000) run.settled = r.sumDeltaGamma2;
         run.last = r.sumDeltaGamma2;
         if (s >= 20) run.maxErr = std::max(run.maxErr, r.maxCellVolumeError);
         run.maxKinetic = std::max(run.maxKinetic, r.kineticEnergy);
@@ -211,17 +215,24 @@ PushRun pushThenCoast(const DynamicsSettings& set, Real push, int steps) {
 }  // namespace
 
 TEST_CASE("stepper: 10000 force-free steps after a strong push stay bounded", "[dynamics][stepper]") {
-    // Goo with the default damping (1/s): δΓ decays as exp(-ζ t), so Σ|δΓ|² falls at least as
-    // exp(-2ζ t) (the homogeneous update never grows it; the stretch part only damps).
+    // Goo with the default damping (1/s): δΓ decays as exp(-ζ t) times the twist's transport
+    // E = F⁻¹ D⁺ F, whose stretch part only damps. Once the flex has settled (S = 1, E = 1)
+    // Σ|δΓ|² falls at least as exp(-2ζ t). Before, while the body still stretches, E of the
+    // (non-orthogonal) frames can slow the decay: measured a mean rate of 1.46/s over the first
+    // 1,000 steps against 2ζ = 2/s, since the volume projection is mass-weighted (2.26/s with
+    // the Euclidean one, which took momentum out of the body); never growth.
     DynamicsSettings goo;
     const int steps = 10000;
     const PushRun g = pushThenCoast(goo, 5, steps);
-    const Real bound = g.peak * std::exp(-2 * goo.damping * steps / 240.0);
+    const Real bound = g.settled * std::exp(-2 * goo.damping * (steps - 2000) / 240.0);
     if (verbose())
-        std::printf("10k force-free (goo): sum dGamma^2 after the push %.3g, at the end %.3g (bound %.3g), max KE %.3g J, "
-                    "max cell error %.2e\n", g.peak, g.last, bound, g.maxKinetic, g.maxErr);
+        std::printf("10k force-free (goo): sum dGamma^2 after the push %.3g, largest after it %.3g, 2000 steps later %.3g, "
+                    "at the end %.3g (bound from step 2000: %.3g), max KE %.3g J, max cell error %.2e\n",
+                    g.peak, g.maxCoast, g.settled, g.last, bound, g.maxKinetic, g.maxErr);
     CHECK(g.finite);
     CHECK(g.peak > 1e-3);
+    CHECK(g.maxCoast <= g.peak);
+    CHECK(g.settled < 1e-3 * g.peak);  // measured 5e-7 of it
     CHECK(g.last <= 1.1 * bound);
     CHECK(g.inverted == 0);
     CHECK(g.maxErr <= 1e-4);
