@@ -13,8 +13,9 @@
 ///    Ä = ⟨F X̃ᵀ⟩⟨X̃ X̃ᵀ⟩⁻¹ (the force's first moment; eq 68's averaged gradient leaves an O(1)
 ///    error for nonlinear fields and is kept only as an option). After the twist's
 ///    reconstruction the affine part of the result is replaced by A, so neither part drifts.
-///  - Flex in SL(3): Störmer-Verlet for A, the new A projected to the nearest SL(3) matrix and
-///    its velocity taken from the projected step (RATTLE-like), so det A = 1 every step.
+///  - Flex in SL(3): Störmer-Verlet for A, the new A brought back onto SL(3) along the
+///    constraint's reaction A⁻ᵀS⁻¹ at the start of the step (SHAKE: no torque), so det A = 1
+///    every step.
 ///  - Twist: eq 76 with W split, W = 2 F⁻¹ L F (F the frame [x_1 x_2 x_3], L the velocity
 ///    gradient of the frames over the last step). The rotation part of L is applied exactly
 ///    (eq 78 holds in the metric g, and literally when g ∝ 1: a rigidly spinning body); its
