@@ -577,35 +577,56 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     std::fill(mContact.begin(), mContact.end(), 0);
     std::fill(mContactDepth.begin(), mContactDepth.end(), Real(0));
     // The points that respond, per collider: the GLN network's R (eqs 90-91, collide/gln_network)
-    // or, without a detector, every point inside some collider.
+    // or, without a detector, the points inside that collider. (Until 2026-11-28 every point
+    // inside SOME collider responded to each: a body touching only another body then counted as
+    // touching the ground too, and its pair's momentum was not put right.)
     std::vector<std::vector<unsigned char>> responds(colliders.size());
+    // The responding collider whose surface is nearest to x (least φ/|∇φ|; negative: inside):
+    // its index (-1 if none with a gradient), that distance and its unit normal.
+    auto nearestResponding = [&](Index p, const Vec3& x, Real& distance, Vec3& normal) {
+        int best = -1;
+        distance = std::numeric_limits<Real>::infinity();
+        for (std::size_t c = 0; c < colliders.size(); ++c) {
+            if (!responds[c][at(p)]) continue;
+            Vec3 g;
+            const Real phi = colliders[c].evaluate(x, g);
+            const Real gn = g.norm();
+            if (gn > 0 && phi / gn < distance) {
+                distance = phi / gn;
+                normal = g / gn;
+                best = static_cast<int>(c);
+            }
+        }
+        return best;
+    };
     // Another body's surface: φ at the predicted positions, before any response (its push is shared).
     std::vector<std::vector<Real>> phi0(colliders.size());
     if (!colliders.empty()) {
         // The truth the contact set is measured against: φ < 0 for some collider, before the response.
         std::vector<unsigned char> truth(at(n), 0);
-        for (std::size_t c = 0; c < colliders.size(); ++c)
+        for (std::size_t c = 0; c < colliders.size(); ++c) {
             if (colliders[c].object) phi0[c].assign(at(n), Real(0));
+            responds[c].assign(at(n), 0);
+        }
         parallelFor(n, [&](Index p) {
             if (mPinned[at(p)]) return;
             for (std::size_t c = 0; c < colliders.size(); ++c) {
                 Vec3 g;
                 const Real phi = colliders[c].evaluate(xNew[at(p)], g);
-                if (phi < 0) truth[at(p)] = 1;
+                if (phi < 0) {
+                    truth[at(p)] = 1;
+                    if (!mDetector) responds[c][at(p)] = 1;
+                }
                 if (colliders[c].object) phi0[c][at(p)] = phi;
             }
         });
-        for (std::size_t c = 0; c < colliders.size(); ++c) {
-            std::vector<unsigned char>& R = responds[c];
-            if (mDetector) {
-                R.assign(at(n), 0);
+        if (mDetector)
+            for (std::size_t c = 0; c < colliders.size(); ++c) {
+                std::vector<unsigned char>& R = responds[c];
                 mDetector(xNew, colliders[c], R);
-            } else {
-                R = truth;
+                for (Index p = 0; p < n; ++p)
+                    if (mPinned[at(p)]) R[at(p)] = 0;
             }
-            for (Index p = 0; p < n; ++p)
-                if (mPinned[at(p)]) R[at(p)] = 0;
-        }
         // Body and flex take the push first (docs/math.md, "Contact: body and flex take the
         // collider's push first"), then each point still inside is moved out.
         if (mSet.affineContact && !mAnyPinned) {
@@ -613,22 +634,13 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             for (Index p = 0; p < n; ++p) {
                 // The deepest collider decides; the point is lifted to its surface and beyond it
                 // by `restitution` × the depth, as the point response below would.
-                Real deepest = 0, lift = 0;
-                Vec3 nrm = Vec3::Zero();
-                for (std::size_t c = 0; c < colliders.size(); ++c) {
-                    if (!responds[c][at(p)]) continue;
-                    Vec3 g;
-                    const Real phi = colliders[c].evaluate(xNew[at(p)], g);
-                    const Real gn = g.norm();
-                    if (gn > 0 && -phi / gn > deepest) {
-                        deepest = -phi / gn;
-                        lift = colliders[c].share * ((1 + colliders[c].restitution) * deepest);
-                        nrm = g / gn;
-                    }
-                }
-                if (deepest > 0) {
-                    mContactDepth[at(p)] = deepest;  // the depth the prediction reached
-                    contacts.push_back({mRestRel[at(p)], nrm, lift});
+                Real distance;
+                Vec3 nrm;
+                const int c = nearestResponding(p, xNew[at(p)], distance, nrm);
+                if (c >= 0 && distance < 0) {
+                    const Collider& col = colliders[static_cast<std::size_t>(c)];
+                    mContactDepth[at(p)] = -distance;  // the depth the prediction reached
+                    contacts.push_back({mRestRel[at(p)], nrm, col.share * ((1 + col.restitution) * -distance)});
                 }
             }
             Vec3 dc;
@@ -746,19 +758,9 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         parallelFor(n, [&](Index p) {
             held[at(p)] = mPinned[at(p)] ? 1 : 0;
             if (mPinned[at(p)] || !mContact[at(p)]) return;
-            Real nearest = std::numeric_limits<Real>::infinity();
-            Vec3 normal = Vec3::Zero();
-            for (std::size_t c = 0; c < colliders.size(); ++c) {
-                if (!responds[c][at(p)]) continue;
-                Vec3 g;
-                const Real phi = colliders[c].evaluate(xNew[at(p)], g);
-                const Real gn = g.norm();
-                if (gn > 0 && phi / gn < nearest) {
-                    nearest = phi / gn;
-                    normal = g / gn;
-                }
-            }
-            if (normal.isZero()) {
+            Real distance;
+            Vec3 normal;
+            if (nearestResponding(p, xNew[at(p)], distance, normal) < 0) {
                 held[at(p)] = 1;
             } else {
                 held[at(p)] = kSlides;
