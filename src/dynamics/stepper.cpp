@@ -484,8 +484,8 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
             char what[300];
             std::snprintf(what, sizeof what,
                           "the lattice folded at material point u = (%d, %d, %d): its connection |Γ + δΓ| = %.3g per "
-                          "lattice step (a smooth shape has well under 1): use more damping, more substeps or a "
-                          "briefer force",
+                          "lattice step (a smooth shape has well under 1): use more damping, more substeps, a "
+                          "briefer force or a stiffer material",
                           u.x(), u.y(), u.z(), std::sqrt(size2(worst)));
             report.fault = what;
             report.totalSeconds = since(tStart);
@@ -524,7 +524,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         std::snprintf(what, sizeof what,
                       "reconstruction: the twist moved material point u = (%d, %d, %d) at (%.4g, %.4g, %.4g) %.3g voxels "
                       "in one step (solve %s); the shape is sheared past what the lattice resolves (measured: a "
-                      "boundary frame folds first): use more damping, more substeps or a briefer force",
+                      "boundary frame folds first): use more damping, more substeps, a briefer force or a stiffer material",
                       u.x(), u.y(), u.z(), xw.x(), xw.y(), xw.z(), maxStep / h,
                       rec.converged ? "converged" : "did not converge");
         report.fault = what;
@@ -688,10 +688,23 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 }
             }
         }
+        // The tangential step `slip` of a contact point cut by the friction μ (1: sticky, 0:
+        // slip), but by no more than μ × the normal step the contact takes out, Coulomb's bound:
+        // the larger of the point's own push and the body's, (1 + e) × its centre's velocity
+        // into the collider × δt (a resting body: g δt², whatever the point's depth). A point
+        // resting or creeping is held as before; one sliding fast (a spinning body's rim) is
+        // braked by that bound, not stopped dead each step, which tore a spinning ball's contact
+        // layer apart in a few steps (docs/math.md, "Friction acts on the patch's slip").
+        auto frictionStep = [&](const Vec3& slip, const Vec3& nrm, Real mu, Real push, Real restitution,
+                                const Vec3& against) -> Vec3 {
+            const Real size = slip.norm();
+            if (!(size > 0)) return Vec3::Zero();
+            const Real body = (1 + restitution) * std::max(Real(0), -(vcBefore - against).dot(nrm)) * dt;
+            return (mu * std::min(size, std::max(push, body)) / size) * slip;
+        };
         // The response of one point to one collider: out along the signed distance's gradient,
         // to the surface and beyond it by `restitution` × the depth (the normal reflection of an
-        // elastic contact; 0: onto the surface), the tangential step reduced by the friction
-        // (1: sticky, 0: slip).
+        // elastic contact; 0: onto the surface), the tangential step reduced by the friction.
         auto respond = [&](Index p, const Collider& col) {
             Vec3& x = xNew[at(p)];
             Vec3 g;
@@ -700,9 +713,10 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             const Real gn = g.norm();
             if (!(gn > 0)) return;
             const Vec3 nrm = g / gn;
-            x -= (1 + col.restitution) * (phi / gn) * nrm;
+            const Real push = (1 + col.restitution) * (-phi / gn);
+            x += push * nrm;
             const Vec3 s = x - mX[at(p)];
-            x -= col.friction * (s - s.dot(nrm) * nrm);
+            x -= frictionStep(s - s.dot(nrm) * nrm, nrm, col.friction, push, col.restitution, Vec3::Zero());
             mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phi / gn);
         };
         // Another body's surface: this body's share of the push the prediction asked for,
@@ -717,9 +731,10 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             if (!(gn > 0)) return;
             const Vec3 nrm = g / gn;
             const Real target = phiBefore * (1 - col.share * (1 + col.restitution));  // φ after the push
-            if (phi < target) x += ((target - phi) / gn) * nrm;
+            const Real push = phi < target ? (target - phi) / gn : Real(0);
+            x += push * nrm;
             const Vec3 s = x - mX[at(p)] - dt * col.velocity;
-            x -= (col.share * col.friction) * (s - s.dot(nrm) * nrm);
+            x -= frictionStep(s - s.dot(nrm) * nrm, nrm, col.share * col.friction, push, col.restitution, col.velocity);
             mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phiBefore / gn);
         };
         parallelFor(n, [&](Index p) {
@@ -837,6 +852,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         if (report.contacts > 0) {
             // restitution on the normal part of the body velocity, about the mean contact normal
             Vec3 nSum = Vec3::Zero(), restSum = Vec3::Zero();
+            std::vector<Vec3> patch;  // the contact points' positions
             Real e = 0, mu = 0;
             Index count = 0;
             for (Index p = 0; p < n; ++p) {
@@ -847,6 +863,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                     if (col.evaluate(xNew[at(p)], g) <= 1e-9 * h) {
                         nSum += g;
                         restSum += mRestRel[at(p)];
+                        patch.push_back(xNew[at(p)]);
                         e += col.restitution;
                         mu += col.friction;
                         ++count;
@@ -866,17 +883,65 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 // collider's push first").
                 const Vec3 nrm = nSum.normalized();
                 const Real vn = vcBefore.dot(nrm);
-                if (vn < 0) {
-                    // Coulomb friction on the centre: the tangential velocity loses up to the
-                    // friction coefficient times the normal velocity the contact took out (a body
-                    // resting under gravity: μ g δt a step, so a slow creep stops dead).
-                    const Real restitution = e / static_cast<Real>(count), friction = mu / static_cast<Real>(count);
-                    Vec3 tangential = mVc - mVc.dot(nrm) * nrm;
-                    const Real vt = tangential.norm(), brake = friction * (1 + restitution) * (-vn);
-                    tangential *= vt > brake ? (vt - brake) / vt : Real(0);
-                    mVc = tangential - restitution * vn * nrm;
-                }
                 const Vec3 xbar = restSum / static_cast<Real>(count);
+                // The body's rigid motion about its centre: ω = J⁻¹ L with L the angular momentum
+                // of the flex rate per unit mass (vee of the skew part of Ȧ S Aᵀ) and J = tr B − B,
+                // B = A S Aᵀ; the flex rate of a spin ω is [ω]× A.
+                const Mat3 S = mS0inv.inverse();
+                const Mat3 B = A1 * S * A1.transpose();
+                const Eigen::LDLT<Mat3> inertia((B.trace() * Mat3::Identity() - B).eval());
+                auto spinOf = [&](const Mat3& rate) {
+                    const Mat3 K = rate * S * A1.transpose();  // Σ m v rᵀ / M
+                    return Vec3(inertia.solve(Vec3(K(2, 1) - K(1, 2), K(0, 2) - K(2, 0), K(1, 0) - K(0, 1))));
+                };
+                auto spinRate = [&](const Vec3& w) {
+                    Mat3 wx;
+                    wx << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+                    return Mat3(wx * A1);
+                };
+                const Vec3 arm = A1 * xbar;
+                if (vn < 0) {
+                    const Real restitution = e / static_cast<Real>(count), friction = mu / static_cast<Real>(count);
+                    mVc += -(mVc.dot(nrm) + restitution * vn) * nrm;
+                    // Coulomb friction at the contact patch: the slip of the patch's mean material
+                    // point X̄ under the body's rigid motion, v_c + ω × A X̄ (its deformation, a
+                    // sag spreading the patch, is the points' own friction's), loses up to the
+                    // friction coefficient times the normal velocity the contact took out (a body
+                    // resting under gravity: μ g δt a step, so a slow creep stops dead), by an
+                    // impulse at A X̄ as on a rigid body: δv_c = −λ t, δω = J⁻¹ (A X̄ × −λ t),
+                    // δȦ = [δω]× A (det A kept). A body spinning on a rough ground so rolls away;
+                    // braking the centre alone held it where it was, spinning (docs/math.md,
+                    // "Friction acts on the patch's slip").
+                    const Vec3 slipVel = mVc + spinOf(mAdot).cross(arm);
+                    const Vec3 slip = slipVel - slipVel.dot(nrm) * nrm;
+                    const Real vs = slip.norm(), brake = friction * (1 + restitution) * (-vn);
+                    if (vs > 0 && brake > 0) {
+                        const Vec3 tdir = slip / vs;
+                        const Vec3 turn = inertia.solve(arm.cross(tdir));      // δω per unit impulse along −t
+                        const Real response = 1 + arm.cross(tdir).dot(turn);  // slip change per unit impulse
+                        const Real lambda = std::min(vs / response, brake);
+                        mVc -= lambda * tdir;
+                        mAdot -= lambda * spinRate(turn);
+                    }
+                    // And the patch's friction against turning about the normal (a body spinning
+                    // like a top on it): up to μ × the normal impulse × the mean distance of the
+                    // contact points from their centroid in the plane (for a uniformly pressed
+                    // disc of radius a, 2a/3: the Coulomb torque). Without it a ball kept
+                    // spinning on the ground on the spot for as long as it was watched.
+                    Vec3 centroid = Vec3::Zero();
+                    for (const Vec3& x : patch) centroid += x / static_cast<Real>(patch.size());
+                    Real reach = 0;
+                    for (const Vec3& x : patch) {
+                        const Vec3 d = x - centroid;
+                        reach += (d - d.dot(nrm) * nrm).norm() / static_cast<Real>(patch.size());
+                    }
+                    const Vec3 turnAxis = inertia.solve(nrm);  // δω per unit angular impulse about n
+                    const Real twist = spinOf(mAdot).dot(nrm), perImpulse = nrm.dot(turnAxis);
+                    if (twist != 0 && perImpulse > 0 && reach > 0) {
+                        const Real tau = std::min(std::abs(twist) / perImpulse, brake * reach);
+                        mAdot -= (std::copysign(tau, twist)) * spinRate(turnAxis);
+                    }
+                }
                 const Real lift = nrm.dot(mAdot * xbar);  // > 0: the patch leaves the collider
                 const Mat3 gA = volumeKeeping(nrm * xbar.transpose() * mS0inv, A1, mS0inv);
                 const Real effect = nrm.dot(gA * xbar);
