@@ -36,6 +36,34 @@ std::string stepAt96(DeformableBody& body, const ForceField& field, const std::v
     return {};
 }
 
+/// The lopsided jelly of the spin tests (5 voxels' radius, h = 0.06 m, k = 300/s², damping 2/s),
+/// set down on the ground turning at `omega` rad/s about the vertical.
+struct SpinningJelly {
+    static constexpr int r = 5;
+    static constexpr Real h = 0.06;
+    const Lattice lat =
+        test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
+    DeformableBody body;
+
+    explicit SpinningJelly(Real omega) : body(lat, restPositions(lat), settings()) {
+        body.setRigidVelocity(Vec3::Zero(), Vec3(0, omega, 0));
+    }
+    static DynamicsSettings settings() {
+        DynamicsSettings set;
+        set.damping = 2;
+        set.shapeStiffness = 300;
+        return set;
+    }
+    /// L_y = Σ m ((x − c) × v)_y, the angular momentum about the vertical through the centre.
+    Real spin() const {
+        const Vec3 c = body.centre();
+        Real L = 0;
+        for (Index p = 0; p < lat.size(); ++p)
+            L += body.masses()[p] * (body.positions()[p] - c).cross(body.velocities()[p]).y();
+        return L;
+    }
+};
+
 }  // namespace
 
 TEST_CASE("affine contact: one contact at the pole has the closed form", "[dynamics][contact]") {
@@ -298,23 +326,11 @@ TEST_CASE("contact: a jelly spinning on a frictionless ground is not spun up by 
     // And the flex's step back onto SL(3) went to the nearest matrix, a correction along the
     // end's A⁻ᵀ, which is a torque about the start's: L_y fell 12 % in these 3 s. It now goes
     // along the start's A⁻ᵀS⁻¹ (SHAKE), the constraint's reaction.
-    const int r = 5;
-    const Real h = 0.06;
-    const Lattice lat = test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
-    DynamicsSettings set;
-    set.damping = 2;
-    set.shapeStiffness = 300;
+    SpinningJelly jelly(1);
+    DeformableBody& body = jelly.body;
     Collider ground = test::groundPlane();
     ground.friction = 0;
-    DeformableBody body(lat, restPositions(lat), set);
-    body.setRigidVelocity(Vec3::Zero(), Vec3(0, 1, 0));
-    auto spin = [&]() {
-        const Vec3 c = body.centre();
-        Real L = 0;
-        for (Index p = 0; p < lat.size(); ++p)
-            L += body.masses()[p] * (body.positions()[p] - c).cross(body.velocities()[p]).y();
-        return L;
-    };
+    auto spin = [&] { return jelly.spin(); };
     const int steps = 288;  // 3 s at 96 steps/s
     Real first = 0, lo = 0, hi = 0, stretch = 0;
     int done = 0;
@@ -430,23 +446,11 @@ TEST_CASE("contact: a jelly spinning like a top on a rough ground stops turning"
     // torque, μ m g × (2/3 of its radius), stops a rigid ball in J ω / (μ g · 2a/3) (about
     // 0.3 s here once it has sagged). Before it, the points' friction alone left it turning:
     // L_y kept 99.6 % of its start after 1 s (64 % with their Coulomb bound but no torque).
-    const int r = 5;
-    const Real h = 0.06;
-    const Lattice lat = test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
-    DynamicsSettings set;
-    set.damping = 2;
-    set.shapeStiffness = 300;
+    SpinningJelly jelly(3);
+    DeformableBody& body = jelly.body;
     Collider ground = test::groundPlane();
     ground.friction = 0.5;
-    DeformableBody body(lat, restPositions(lat), set);
-    body.setRigidVelocity(Vec3::Zero(), Vec3(0, 3, 0));
-    auto spin = [&]() {
-        const Vec3 c = body.centre();
-        Real L = 0;
-        for (Index p = 0; p < lat.size(); ++p)
-            L += body.masses()[p] * (body.positions()[p] - c).cross(body.velocities()[p]).y();
-        return L;
-    };
+    auto spin = [&] { return jelly.spin(); };
     const Real start = spin();
     Real at1 = 0, late = 0;
     int done = 0;
