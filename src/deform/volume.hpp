@@ -131,7 +131,8 @@ struct [[nodiscard]] VolumeProjectionReport {
 /// gradients from zero multipliers, preconditioned by smoothed-aggregation multigrid with parity
 /// aggregates (or Jacobi), each only as accurate as the step can use (inexact Gauss-Newton);
 /// after each step `localSweeps` nonlinear Gauss-Seidel sweeps over the cells remove localised
-/// peaks. From 3e-2 errors: 2 iterations to 1e-5, 3 to 1e-12 (docs/math.md). Pinned points
+/// peaks; it stops when every cell is within `tolerance` and the total within `driftTolerance`.
+/// From 3e-2 errors: 2 iterations to 1e-5, 3 to 1e-12 (docs/math.md). Pinned points
 /// (pinned[p] == 1; may be empty = none) never move, sliding ones (pinned[p] == kSlides) move only
 /// along their plane; cells with all corners fixed are left out (counted in `unconstrainable`).
 /// @param[in]     cells        cells of the lattice the positions belong to
