@@ -35,6 +35,8 @@ DeformableBodyState DeformableBody::saveState() const {
     s.flex = mA;
     s.flexVelocity = mAdot;
     s.halfStep = mHalfStep;
+    s.plasticFlex = mPlasticFlex;
+    s.plasticGamma = mPlasticGamma;
     s.displacement = mDisplacement;
     s.displacementPrev = mDisplacementPrev;
     s.volumeCachePositions = mVolumeCache.builtFromPositions;
@@ -51,6 +53,7 @@ bool DeformableBody::stateFits(const DeformableBodyState& s) const {
               (!s.volumeCachePinned.empty() ? !s.volumeCachePositions.empty() : true);
     for (std::size_t a = 0; a < 3; ++a) {
         ok = ok && s.deltaGamma[a].size() == n;
+        ok = ok && s.plasticGamma[a].size() == mPlasticGamma[a].size();  // n with plasticity, else 0
         ok = ok && (s.tangentPrev[a].size() == n || (!s.havePrev && s.tangentPrev[a].empty()));
     }
     return ok;
@@ -70,6 +73,8 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mA = s.flex;
     mAdot = s.flexVelocity;
     mHalfStep = s.halfStep;
+    mPlasticFlex = s.plasticFlex;
+    mPlasticGamma = std::move(s.plasticGamma);
     mDisplacement = std::move(s.displacement);
     mDisplacementPrev = std::move(s.displacementPrev);
     // The geometric state is a function of the positions (the step ends by computing it so).

@@ -34,6 +34,8 @@ struct DeformableBodyState {
     Vec3 centre = Vec3::Zero(), centreVelocity = Vec3::Zero();
     Mat3 flex = Mat3::Identity(), flexVelocity = Mat3::Zero();
     bool halfStep = false;
+    Mat3 plasticFlex = Mat3::Identity();         ///< plasticity: the flex's rest stretch P
+    std::array<std::vector<Mat3>, 3> plasticGamma;  ///< plasticity: Γ_p (#P each, or empty when off)
     std::vector<Vec3> displacement;              ///< #P: the reconstruction's warm start
     std::vector<Vec3> displacementPrev;          ///< #P: the displacement of the step before (extrapolated warm start)
     std::vector<Vec3> volumeCachePositions;      ///< VolumeProjectionCache::builtFromPositions (#P or empty)

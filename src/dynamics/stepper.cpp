@@ -212,6 +212,9 @@ std::vector<std::string> DynamicsSettings::validate() const {
     positive(density, "density");
     nonNegative(damping, "damping");
     nonNegative(shapeStiffness, "stiffness");
+    nonNegative(yieldStrain, "yield");
+    if (yieldStrain > 0 && !(shapeStiffness > 0))
+        out.push_back("yield: needs a stiffness > 0 (goo has no rest shape to yield; it flows at any strain)");
     positive(maxDeltaGamma, "max_delta_gamma");
     positive(volumeTolerance, "volume_tolerance");
     positive(reconstructTolerance, "reconstruct_tolerance");
@@ -282,6 +285,12 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
 
     computeGeometricState(mLat, mX, mState);
     for (auto& g : mDGamma) g.assign(at(n), Mat3::Zero());
+    if (mSet.yieldStrain > 0) {
+        // Plasticity: the rest connection starts at the lattice's (0, as the shape memory's);
+        // its yield is the strain across the body's radius of gyration, in lattice steps.
+        for (auto& g : mPlasticGamma) g.assign(at(n), Mat3::Zero());
+        mGammaYield = mSet.yieldStrain / (std::sqrt(S0.trace()) / mLat.spacing);
+    }
     mContact.assign(at(n), 0);
     mContactDepth.assign(at(n), 0);
     mV.assign(at(n), Vec3::Zero());
@@ -340,6 +349,39 @@ void DeformableBody::fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& a
         },
         [](const Acc& a, const Acc& b) { return Acc(a + b); });
     affine = Eigen::Map<const Mat3>(s.data()) / mTotalMass * mS0inv;
+}
+
+void DeformableBody::yieldRestShape() {
+    const Real yield = mSet.yieldStrain;
+    // Flex: the elastic part A P⁻¹ = R U; where its logarithmic strain log U (trace-free, as
+    // det = 1) is longer than the yield, P takes the excess: P ← exp(ε − ε_y) P along U's axes,
+    // ε_y = ε · yield/|ε| (the radial return of plasticity).
+    const Mat3 elastic = mA * mPlasticFlex.inverse();
+    Eigen::SelfAdjointEigenSolver<Mat3> es;
+    es.computeDirect(elastic.transpose() * elastic);
+    const Vec3 lambda = es.eigenvalues();
+    if (lambda.minCoeff() > 0) {
+        const Vec3 strain = Real(0.5) * lambda.array().log().matrix();
+        const Real norm = strain.norm();
+        if (norm > yield) {
+            const Vec3 excess = (1 - yield / norm) * strain;
+            Mat3 P = es.eigenvectors() * excess.array().exp().matrix().asDiagonal() * es.eigenvectors().transpose() *
+                     mPlasticFlex;
+            P /= std::cbrt(P.determinant());  // det 1 to rounding
+            mPlasticFlex = P;
+        }
+    }
+    // Twist: Γ_p takes the part of Γ − Γ_p beyond the yield (Frobenius norm over the 27
+    // components, per lattice step).
+    const Real tau = mGammaYield;
+    parallelFor(mLat.size(), [&](Index p) {
+        const std::size_t i = at(p);
+        Real norm2 = 0;
+        for (std::size_t c = 0; c < 3; ++c) norm2 += (mState.christoffel[c][i] - mPlasticGamma[c][i]).squaredNorm();
+        if (!(norm2 > tau * tau)) return;
+        const Real f = 1 - tau / std::sqrt(norm2);
+        for (std::size_t c = 0; c < 3; ++c) mPlasticGamma[c][i] += f * (mState.christoffel[c][i] - mPlasticGamma[c][i]);
+    });
 }
 
 Real DeformableBody::sumDeltaGamma2() const {
@@ -406,7 +448,18 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     const Vec3 accel = mom.head<3>() / mTotalMass;
     const Mat3 moment = Eigen::Map<const Mat3>(mom.tail<9>().data()) / mTotalMass;
     Mat3 flexAccel = mSet.flexDrive == FlexDrive::FirstMoment ? Mat3(moment * mS0inv) : Mat3(moment * mA);
-    if (mSet.shapeStiffness > 0) flexAccel -= mSet.shapeStiffness * (mA - polarRotation(mA));
+    if (mSet.shapeStiffness > 0) {
+        if (mSet.yieldStrain > 0) {
+            // The memory's energy k/2 |A P⁻¹ − R|² of the elastic part A P⁻¹ (R its polar
+            // rotation; P the rest stretch): its gradient k (A P⁻¹ − R) P⁻ᵀ. A flattened rest
+            // shape (small P_yy) resists a further squash more (docs/math.md, "Plasticity").
+            const Mat3 Pinv = mPlasticFlex.inverse();
+            const Mat3 elastic = mA * Pinv;
+            flexAccel -= mSet.shapeStiffness * (elastic - polarRotation(elastic)) * Pinv.transpose();
+        } else {
+            flexAccel -= mSet.shapeStiffness * (mA - polarRotation(mA));
+        }
+    }
     if (mSet.damping > 0) flexAccel -= mSet.damping * Real(0.5) * (L0 + L0.transpose()) * mA;
     const Real kick = mHalfStep ? dt : Real(0.5) * dt;
     const Vec3 vcBefore = mVc + kick * accel;
@@ -445,6 +498,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         std::array<Mat3, 3> hess;
         for (std::size_t c = 0; c < 3; ++c) {
             gamma[c] = mState.christoffel[c][i];
+            if (!mPlasticGamma[c].empty()) gamma[c] -= mPlasticGamma[c][i];  // memory toward Γ_p
             dg[c] = mDGamma[c][i];
             hess[c] = fs.hessian[c][i];
         }
@@ -1016,6 +1070,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             for (std::size_t c = 0; c < 3; ++c) mDGamma[c][at(p)] = d[c];
         });
     }
+    if (mSet.yieldStrain > 0) yieldRestShape();
     report.stateSeconds = since(t);
     volumeFigures(report.maxCellVolumeError, report.totalVolumeDrift, report.invertedCells);
     if (report.invertedCells > 0 && report.fault.empty())

@@ -77,6 +77,12 @@ struct DynamicsSettings {
                                       ///< Goo with 0 flows forever after a push and folds (docs/math.md)
     Real shapeStiffness = 0;          ///< k, 1/s^2: restoring term toward the rest shape (jelly);
                                       ///< wobble frequency sqrt(k)/(2π) Hz
+    /// Plasticity (docs/math.md, "Plasticity: the rest shape yields"), with shape memory only: the
+    /// largest elastic strain the body holds, a logarithmic strain (0.2: about 22 % stretch).
+    /// Beyond it the rest shape follows the body (putty, clay: a squash or a dent stays, the
+    /// rest springs back): the flex's rest stretch P (memory toward R P) and the twist's rest
+    /// connection Γ_p (memory toward Γ_p), each returned to within the yield every step. 0: off.
+    Real yieldStrain = 0;
     FlexDrive flexDrive = FlexDrive::FirstMoment;
     TwistStretch twistStretch = TwistStretch::DampOnly;
     /// Turn δΓ by the frames' rotation over the step, R(−2θ) in eq 76's exp(−δt W) (true: the
@@ -260,6 +266,11 @@ public:
     const Vec3& centreVelocity() const { return mVc; }  ///< at the last half step
     const Mat3& flex() const { return mA; }             ///< A, det 1
     const Mat3& flexVelocity() const { return mAdot; }  ///< Ȧ at the last half step
+    /// Plasticity: the flex's rest stretch P (identity when off or not yielded) and the twist's
+    /// rest connection Γ_p (empty when off).
+    const Mat3& plasticFlex() const { return mPlasticFlex; }
+    const std::array<std::vector<Mat3>, 3>& plasticGamma() const { return mPlasticGamma; }
+    Real gammaYield() const { return mGammaYield; }  ///< the yield of |Γ − Γ_p| per lattice step (0: off)
     /// Σ_p Σ_cab (δΓ^c_ab)² now.
     Real sumDeltaGamma2() const;
     /// Volume figures of the current positions.
@@ -301,6 +312,11 @@ private:
     Vec3 mC = Vec3::Zero(), mVc = Vec3::Zero();
     Mat3 mA = Mat3::Identity(), mAdot = Mat3::Zero();
     bool mHalfStep = false;       ///< mVc/mAdot are half-step velocities (after the first step)
+    // Plasticity (DynamicsSettings::yieldStrain > 0):
+    Mat3 mPlasticFlex = Mat3::Identity();             ///< P: the flex's rest shape is R P (det 1)
+    std::array<std::vector<Mat3>, 3> mPlasticGamma;   ///< Γ_p per point (#P each; empty when off)
+    Real mGammaYield = 0;  ///< the yield of |Γ − Γ_p| per lattice step: yieldStrain / the radius of gyration in steps
+    void yieldRestShape();  ///< returns P and Γ_p to within the yield (end of finish)
 
     std::vector<Index> mSolverFixed;  ///< the reconstruction's reference points (pins, or a centre point per component)
     std::unique_ptr<PoissonSolver> mSolver;

@@ -362,6 +362,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.material.density = m.number("density", d.material.density, 0, HUGE_VAL, true);
             d.material.damping = m.number("damping", d.material.damping, 0, 1e6);
             d.material.stiffness = m.number("stiffness", d.material.stiffness, 0, 1e8);
+            d.material.yield = m.number("yield", d.material.yield, 0, 10);
+            if (d.material.yield > 0 && d.material.stiffness == 0)
+                m.fail("yield", "needs a 'stiffness' > 0 (goo has no rest shape to yield; it flows at any strain)");
             d.material.volumeTolerance = m.number("volume_tolerance", d.material.volumeTolerance, 1e-12, 0.1);
             d.material.maxDeltaGamma = m.number("max_delta_gamma", d.material.maxDeltaGamma, 0, 1, true);
         });

@@ -123,6 +123,8 @@ void writeBody(Writer& w, const DeformableBodyState& s) {
     w.value(s.flex);
     w.value(s.flexVelocity);
     w.value(static_cast<std::uint8_t>(s.halfStep));
+    w.value(s.plasticFlex);
+    for (const auto& g : s.plasticGamma) w.array(g);
     w.array(s.displacement);
     w.array(s.displacementPrev);
     w.array(s.volumeCachePositions);
@@ -151,6 +153,8 @@ void readBody(Reader& r, DeformableBodyState& s) {
     s.flex = r.value<Mat3>();
     s.flexVelocity = r.value<Mat3>();
     s.halfStep = readBool(r);
+    s.plasticFlex = r.value<Mat3>();
+    for (auto& g : s.plasticGamma) r.array(g);
     r.array(s.displacement);
     r.array(s.displacementPrev);
     r.array(s.volumeCachePositions);

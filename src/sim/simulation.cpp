@@ -74,6 +74,7 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         set.density = o.material.density;
         set.damping = o.material.damping;
         set.shapeStiffness = o.material.stiffness;
+        set.yieldStrain = o.material.yield;
         set.volumeTolerance = o.material.volumeTolerance;
         set.maxDeltaGamma = o.material.maxDeltaGamma;
         std::vector<unsigned char> pinned(at(lat.size()), 0);

@@ -26,7 +26,11 @@ struct Drop {
     DynamicsSettings set;
     ForceField field;
     std::vector<Collider> colliders;
-    Drop() {
+    explicit Drop(bool plastic = false) {
+        if (plastic) {  // putty: the rest shape yields (its P and Γ_p are part of the state)
+            set.shapeStiffness = 300;
+            set.yieldStrain = 0.02;
+        }
         set.damping = 1;
         set.volumeTolerance = 1e-9;  // a projection on every step (the default 1e-5 lets most pass)
         ForceTerm t;
@@ -73,7 +77,9 @@ bool sameBits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 }  // namespace
 
 TEST_CASE("body_state: a body restored mid-run continues bit-identically", "[dynamics][checkpoint]") {
-    const Drop d;
+    const bool plastic = GENERATE(false, true);
+    INFO("plastic " << plastic);
+    const Drop d(plastic);
     auto a = d.body();
     d.run(*a, 0, 12);
     const DeformableBodyState at12 = a->saveState();
@@ -93,6 +99,14 @@ TEST_CASE("body_state: a body restored mid-run continues bit-identically", "[dyn
     CHECK(a->centre() == b->centre());
     CHECK(a->flex() == b->flex());
     for (std::size_t c = 0; c < 3; ++c) CHECK(a->deltaGamma()[c] == b->deltaGamma()[c]);
+    CHECK(a->plasticFlex() == b->plasticFlex());
+    for (std::size_t c = 0; c < 3; ++c) CHECK(a->plasticGamma()[c] == b->plasticGamma()[c]);
+    if (plastic) {  // it did yield, in the flex and the twist
+        CHECK(!a->plasticFlex().isIdentity(1e-9));
+        Real yielded = 0;
+        for (const Mat3& g : a->plasticGamma()[0]) yielded = std::max(yielded, g.norm());
+        CHECK(yielded > 0);
+    }
 }
 
 TEST_CASE("body_state: the saved state round-trips and a wrong size does not fit", "[dynamics][checkpoint]") {

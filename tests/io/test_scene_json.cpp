@@ -258,4 +258,13 @@ TEST_CASE("scene_json: material keys map onto the object", "[io][scene]") {
     CHECK(m.stiffness == 10);
     CHECK(m.maxDeltaGamma == Approx(0.1));
     CHECK(m.volumeTolerance == Approx(2e-6));
+    CHECK(m.yield == 0);  // elastic unless asked
+    const SceneDesc putty = parseScene(
+        R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 1000, "yield": 0.1}}]})", "dir/scene.json");
+    CHECK(putty.objects[0].material.yield == Approx(0.1));
+    // goo cannot yield: it has no rest shape
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"yield": 0.1}}]})"),
+               Catch::Contains("objects[0].material.yield: needs a 'stiffness' > 0"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 5, "yield": -1}}]})"),
+               Catch::Contains("objects[0].material.yield:"));
 }

@@ -35,6 +35,7 @@ StateCheckpoint sample() {
         for (std::size_t a = 0; a < 3; ++a) {
             b.tangentPrev[a].push_back(Vec3::Constant(s * static_cast<Real>(a + 1)));
             b.deltaGamma[a].push_back(Mat3::Constant(1e-300 * s));
+            b.plasticGamma[a].push_back(Mat3::Constant(-0.25 * s * static_cast<Real>(a)));
         }
         b.contact.push_back(p % 2 ? 1 : 0);
         b.contactDepth.push_back(p % 2 ? 1e-3 * s : 0);
@@ -49,6 +50,7 @@ StateCheckpoint sample() {
     b.centreVelocity = Vec3(-1, 0.5, 1e-17);
     b.flex = Mat3::Identity() * 1.0000001;
     b.flexVelocity = Mat3::Constant(-2);
+    b.plasticFlex << 1.25, 0.125, 0, 0, 0.8, 0, 0, 0, 1;
     c.contactAges = {{}, {0, 1, 1 << 30, 7, 3}, {}};
     return c;
 }
@@ -102,6 +104,8 @@ TEST_CASE("state_file: a checkpoint round-trips bit for bit", "[io][checkpoint]"
     CHECK(a.centreVelocity == b.centreVelocity);
     CHECK(a.flex == b.flex);
     CHECK(a.flexVelocity == b.flexVelocity);
+    CHECK(a.plasticFlex == b.plasticFlex);
+    for (std::size_t k = 0; k < 3; ++k) CHECK(sameBits(a.plasticGamma[k], b.plasticGamma[k]));
     CHECK(r.contactAges == c.contactAges);
     // Writing what was read gives the same bytes.
     writeStateFile(dir.path() / "again.dgvstate", r);
