@@ -181,6 +181,7 @@ int runRender(const RenderOptions& options) {
     if (!scene.curves.empty()) return renderCurveScene(scene, first, last);  // the GLN figures
 
     // Build every object before anything is written: bad meshes or settings fail up front.
+    resolvePinGroups(scene);
     std::vector<BuiltObject> objects;
     Box3 bounds;
     for (int i = 0; i < static_cast<int>(scene.objects.size()); ++i) {

@@ -28,6 +28,7 @@ int runSimulate(const SimulateOptions& options) {
     checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out", options.outDir.empty() ? "output.dir" : "");
     const bool vdb = options.vdb || scene.output.vdb;
 
+    resolvePinGroups(scene);
     std::vector<BuiltObject> objects;
     for (int i = 0; i < static_cast<int>(scene.objects.size()); ++i) {
         objects.push_back(buildObject(scene, i));

@@ -32,6 +32,23 @@ TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, in
     return mesh;
 }
 
+void resolvePinGroups(SceneDesc& scene) {
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        ObjectDesc& desc = scene.objects[i];
+        if (desc.pin.kind != PinDesc::Kind::Group) continue;
+        MeshImportOptions opts;
+        opts.meshName = desc.pin.group;
+        TriangleMesh group;
+        try {
+            group = importMesh(desc.meshPath, opts);
+        } catch (const InputError& e) {
+            throw InputError(scene.path, "objects[" + std::to_string(i) + "].pin.group", e.what());
+        }
+        transformMesh(group, desc.transform.linear(), desc.transform.translate);
+        desc.pin.groupVertices = std::move(group.vertices);
+    }
+}
+
 BuiltObject buildObject(const SceneDesc& scene, int index) {
     const ObjectDesc& desc = scene.objects[static_cast<std::size_t>(index)];
     BuiltObject obj;

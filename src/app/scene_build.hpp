@@ -30,6 +30,12 @@ struct BuiltObject {
 /// and the JSON path (objects[i].mesh) as well as the mesh file.
 TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, int index);
 
+/// Reads the vertices of every pin's vertex group (`pin.group`: a mesh or node of the object's
+/// mesh file) into PinDesc::groupVertices, in world space with the object's transform, before
+/// the simulation is built. InputError names the scene file and objects[i].pin.group (an unknown
+/// name lists the names the file has).
+void resolvePinGroups(SceneDesc& scene);
+
 /// Mesh, lattice, state and embedding of object `index` of the scene.
 BuiltObject buildObject(const SceneDesc& scene, int index);
 

@@ -371,9 +371,15 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.velocity = o.vec3("velocity", d.velocity);
         d.spinDegrees = o.vec3("spin", d.spinDegrees);
         o.object("pin", [&](ObjectReader& p) {
-            const bool box = p.has("min") || p.has("max"), ball = p.has("centre") || p.has("radius");
-            if (box == ball) p.fail("", "give a box ('min' and 'max') or a ball ('centre' and 'radius')");
-            if (box) {
+            const bool box = p.has("min") || p.has("max"), ball = p.has("centre") || p.has("radius"), group = p.has("group");
+            if (int(box) + int(ball) + int(group) != 1)
+                p.fail("", "give a box ('min' and 'max'), a ball ('centre' and 'radius') or a vertex group ('group')");
+            if (group) {
+                if (d.isPrimitive) p.fail("group", "a vertex group needs a mesh object (a primitive has none)");
+                d.pin.kind = PinDesc::Kind::Group;
+                d.pin.group = p.string("group", "");
+                if (d.pin.group.empty()) p.fail("group", "expected the name of a mesh or node in the object's mesh file");
+            } else if (box) {
                 d.pin.kind = PinDesc::Kind::Box;
                 d.pin.min = p.vec3("min", Vec3::Zero());
                 d.pin.max = p.vec3("max", Vec3::Zero());

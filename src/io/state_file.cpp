@@ -293,6 +293,8 @@ std::uint64_t sceneDynamicsKey(const SceneDesc& scene, const std::vector<const L
             std::ifstream in(path, std::ios::binary);
             f.text(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
         }
+    for (const ObjectDesc& o : scene.objects)  // a pinned vertex group's vertices (resolved from the mesh file)
+        if (!o.pin.groupVertices.empty()) f.add(o.pin.groupVertices.data(), o.pin.groupVertices.size() * sizeof(Vec3));
     f.value(static_cast<std::uint64_t>(lattices.size()));
     for (const Lattice* lat : lattices) {
         if (!lat) {

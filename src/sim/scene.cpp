@@ -56,6 +56,7 @@ bool PinDesc::contains(const Vec3& x) const {
         case Kind::None: return false;
         case Kind::Box: return (x.array() >= min.array()).all() && (x.array() <= max.array()).all();
         case Kind::Ball: return (x - centre).norm() <= radius;
+        case Kind::Group: return false;  // by vertices, not by position (sim/simulation.cpp)
     }
     return false;
 }

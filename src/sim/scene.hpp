@@ -46,12 +46,19 @@ struct MaterialDesc {
     Real maxDeltaGamma = 0.05;  ///< limiter on the connection change per step
 };
 
-/// Material points held fixed: those whose rest position lies in a box or a ball (world units).
+/// Material points held fixed: those whose rest position lies in a box or a ball (world units),
+/// or those that carry a vertex group of the object's mesh file (a named mesh or node, e.g. an
+/// OBJ `g` group: Blender's OBJ export writes vertex groups so) — the 8 corners of each group
+/// vertex's lattice cell, or its anchor point near the surface (geom/embedding).
 struct PinDesc {
-    enum class Kind { None, Box, Ball } kind = Kind::None;
+    enum class Kind { None, Box, Ball, Group } kind = Kind::None;
     Vec3 min = Vec3::Zero(), max = Vec3::Zero();  ///< box
     Vec3 centre = Vec3::Zero();                   ///< ball
     Real radius = 0;                              ///< ball
+    std::string group;                            ///< group: the mesh or node name in the object's mesh file
+    /// group: its vertices at rest (world units, the object's transform applied), read by the
+    /// app before the simulation is built (app/scene_build resolvePinGroups)
+    std::vector<Vec3> groupVertices;
     bool contains(const Vec3& x) const;
 };
 

@@ -6,6 +6,7 @@
 #include "base/errors.hpp"
 #include "base/types.hpp"
 #include "collide/gln_network.hpp"
+#include "geom/embedding.hpp"
 #include "sim/forces_from_scene.hpp"
 #include "sim/body_contact.hpp"
 #include "sim/levelset_collider.hpp"
@@ -78,8 +79,23 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         set.volumeTolerance = o.material.volumeTolerance;
         set.maxDeltaGamma = o.material.maxDeltaGamma;
         std::vector<unsigned char> pinned(at(lat.size()), 0);
-        if (o.pin.kind != PinDesc::Kind::None)
+        if (o.pin.kind == PinDesc::Kind::Group) {
+            // The material points that carry the group's vertices: the corners of a vertex's
+            // cell, or its anchor where the cell is not all material (geom/embedding).
+            if (o.pin.groupVertices.empty())
+                throw InputError(scene.path, "objects[" + std::to_string(i) + "].pin.group",
+                                 "the vertex group '" + o.pin.group + "' has no vertices");
+            const MeshEmbedding emb = embedVertices(lat, o.pin.groupVertices);
+            for (std::size_t v = 0; v < emb.size(); ++v) {
+                if (emb.trilinear(v)) {
+                    for (const Index q : emb.corners[v]) pinned[at(q)] = 1;
+                } else {
+                    pinned[at(emb.anchor[v])] = 1;
+                }
+            }
+        } else if (o.pin.kind != PinDesc::Kind::None) {
             for (Index p = 0; p < lat.size(); ++p) pinned[at(p)] = o.pin.contains(lat.restPosition(p)) ? 1 : 0;
+        }
         try {
             mBodies[i] = std::make_unique<DeformableBody>(lat, restPositions(lat), set, pinned);
         } catch (const InputError& e) {
