@@ -40,7 +40,11 @@ int runSimulate(const SimulateOptions& options) {
         logWarning(scene.path + ": nothing moves (no forces and no initial velocity); the frames are the rest state");
     ensureDirectory(scene.output.dir);
     logInfo("simulating frames " + std::to_string(scene.frameStart) + "-" + std::to_string(last) + " of '" + scene.name +
-            "' (" + std::to_string(scene.substeps) + " substeps per frame) into " + scene.output.dir +
+            "' (" +
+            (scene.maxSubsteps > scene.substeps
+                 ? std::to_string(scene.substeps) + "-" + std::to_string(scene.maxSubsteps) + " substeps per frame, adaptive"
+                 : std::to_string(scene.substeps) + " substeps per frame") +
+            ") into " + scene.output.dir +
             (vdb ? " with the VDB cache" : ""));
     // State checkpoints (docs/robustness.md): --resume continues from the latest one up to the
     // last frame; --frames A-B starts from the latest one up to A (frames before it are skipped).
@@ -64,8 +68,8 @@ int runSimulate(const SimulateOptions& options) {
         dynamics.advanceTo(frame);
         const FrameStats& s = dynamics.lastStats();
         char line[160];
-        std::snprintf(line, sizeof line, "frame %d: max cell volume error %.2e, drift %.2e, %.1f ms/step", frame,
-                      s.maxCellVolumeError, s.totalVolumeDrift, s.stepMs);
+        std::snprintf(line, sizeof line, "frame %d: max cell volume error %.2e, drift %.2e, %d substeps, %.1f ms/step",
+                      frame, s.maxCellVolumeError, s.totalVolumeDrift, s.substeps, s.stepMs);
         progress.step(line);
     }
     progress.finish();

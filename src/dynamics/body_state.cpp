@@ -37,6 +37,7 @@ DeformableBodyState DeformableBody::saveState() const {
     s.halfStep = mHalfStep;
     s.plasticFlex = mPlasticFlex;
     s.plasticGamma = mPlasticGamma;
+    s.lastStep = mDtLast;
     s.displacement = mDisplacement;
     s.displacementPrev = mDisplacementPrev;
     s.volumeCachePositions = mVolumeCache.builtFromPositions;
@@ -75,6 +76,7 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mHalfStep = s.halfStep;
     mPlasticFlex = s.plasticFlex;
     mPlasticGamma = std::move(s.plasticGamma);
+    mDtLast = s.lastStep;
     mDisplacement = std::move(s.displacement);
     mDisplacementPrev = std::move(s.displacementPrev);
     // The geometric state is a function of the positions (the step ends by computing it so).

@@ -36,6 +36,7 @@ struct DeformableBodyState {
     bool halfStep = false;
     Mat3 plasticFlex = Mat3::Identity();         ///< plasticity: the flex's rest stretch P
     std::array<std::vector<Mat3>, 3> plasticGamma;  ///< plasticity: Γ_p (#P each, or empty when off)
+    Real lastStep = 0;                           ///< the last step's length, s (0: none yet); δΓ is per step of it
     std::vector<Vec3> displacement;              ///< #P: the reconstruction's warm start
     std::vector<Vec3> displacementPrev;          ///< #P: the displacement of the step before (extrapolated warm start)
     std::vector<Vec3> volumeCachePositions;      ///< VolumeProjectionCache::builtFromPositions (#P or empty)

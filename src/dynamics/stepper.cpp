@@ -384,6 +384,21 @@ void DeformableBody::yieldRestShape() {
     });
 }
 
+void DeformableBody::rescaleStep(Real ratio) {
+    // δΓ and the twist displacements (the warm start) are changes per step: ∝ the step's length
+    // at the same rate. The frames' last step F F_prev⁻¹ = exp(δt L) becomes exp(r δt L) to first
+    // order: F_prev ← F − r (F − F_prev).
+    parallelFor(mLat.size(), [&](Index p) {
+        const std::size_t i = at(p);
+        for (auto& g : mDGamma) g[i] *= ratio;
+        mDisplacement[i] *= ratio;
+        mDisplacementPrev[i] *= ratio;
+        if (mHavePrev)
+            for (std::size_t a = 0; a < 3; ++a)
+                mTangentPrev[a][i] = mState.tangent[a][i] - ratio * (mState.tangent[a][i] - mTangentPrev[a][i]);
+    });
+}
+
 Real DeformableBody::sumDeltaGamma2() const {
     return parallelReduce(
         mLat.size(), Real(0),
@@ -419,6 +434,10 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     StepReport report;
     const Index n = mLat.size();
     const Real h = mLat.spacing;
+    // A step of another length than the last one (adaptive substeps, sim/simulation.cpp): what
+    // the body keeps per step becomes per step of the new length (velocities are per second
+    // already; docs/math.md, "Adaptive substeps").
+    if (mDtLast > 0 && dt != mDtLast) rescaleStep(dt / mDtLast);
 
     // 1. Forces: value for body and flex, Hessian for the twist.
     auto t = Clock::now();
@@ -461,7 +480,9 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         }
     }
     if (mSet.damping > 0) flexAccel -= mSet.damping * Real(0.5) * (L0 + L0.transpose()) * mA;
-    const Real kick = mHalfStep ? dt : Real(0.5) * dt;
+    // Leapfrog: the half-step velocities kick by the mean of the last step and this one (dt
+    // exactly when they are equal).
+    const Real kick = mHalfStep ? Real(0.5) * (mDtLast + dt) : Real(0.5) * dt;
     const Vec3 vcBefore = mVc + kick * accel;
     mVc = vcBefore;
     mAdot += kick * flexAccel;
@@ -1031,6 +1052,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         [](Real a, Real b) { return a + b; });
     mTangentPrev = mState.tangent;
     mHavePrev = true;
+    mDtLast = dt;
     mX.swap(xNew);
     std::array<std::vector<Mat3>, 3> gammaOld;
     const bool antiWindup = mSet.antiWindup && !mSet.realizedRate && report.contacts > 0;

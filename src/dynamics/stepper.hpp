@@ -262,6 +262,9 @@ public:
     /// The connection change δΓ (field[c][p](a, b)), for tests and diagnostics; settable to
     /// give a body an initial non-affine motion.
     std::array<std::vector<Mat3>, 3>& deltaGamma() { return mDGamma; }
+    const std::array<std::vector<Mat3>, 3>& deltaGamma() const { return mDGamma; }
+    Real lastStepLength() const { return mDtLast; }  ///< s, the last finished step's (0: none yet)
+    const DynamicsSettings& settings() const { return mSet; }
     const Vec3& centre() const { return mC; }
     const Vec3& centreVelocity() const { return mVc; }  ///< at the last half step
     const Mat3& flex() const { return mA; }             ///< A, det 1
@@ -329,6 +332,8 @@ private:
     Vec3 mCPred = Vec3::Zero(), mVcPred = Vec3::Zero();  ///< centre and its velocity after the kick
     Mat3 mAPred = Mat3::Identity();   ///< A after the step, in SL(3)
     Real mDtPred = 0;
+    Real mDtLast = 0;                 ///< the last finished step's length (0: none yet)
+    void rescaleStep(Real ratio);     ///< the per-step state for a step `ratio` times as long
     StepReport mPredReport;
     VolumeProjectionCache mVolumeCache;  ///< the volume projection's multigrid, kept between steps
 };

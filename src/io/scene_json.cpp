@@ -312,6 +312,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.fps = f.number("fps", 24, 0, 1000, true);
     });
     s.substeps = r.integer("substeps", 1, 1, 1000);
+    s.maxSubsteps = r.integer("max_substeps", std::max(16, s.substeps), s.substeps, 1000);
+    s.cfl = r.number("cfl", 1, 0, 100, true);
     r.object("collision", [&](ObjectReader& c) {
         const std::string detect = c.choice("detect", "sdf", {"sdf", "gln"});
         s.collision.detect = detect == "gln" ? CollisionDesc::Detect::Gln : CollisionDesc::Detect::Sdf;

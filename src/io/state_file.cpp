@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -125,6 +126,7 @@ void writeBody(Writer& w, const DeformableBodyState& s) {
     w.value(static_cast<std::uint8_t>(s.halfStep));
     w.value(s.plasticFlex);
     for (const auto& g : s.plasticGamma) w.array(g);
+    w.value(s.lastStep);
     w.array(s.displacement);
     w.array(s.displacementPrev);
     w.array(s.volumeCachePositions);
@@ -155,6 +157,8 @@ void readBody(Reader& r, DeformableBodyState& s) {
     s.halfStep = readBool(r);
     s.plasticFlex = r.value<Mat3>();
     for (auto& g : s.plasticGamma) r.array(g);
+    s.lastStep = r.value<Real>();
+    if (!(s.lastStep >= 0) || !std::isfinite(s.lastStep)) r.ok = false;
     r.array(s.displacement);
     r.array(s.displacementPrev);
     r.array(s.volumeCachePositions);

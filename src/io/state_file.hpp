@@ -29,7 +29,7 @@
 
 namespace dgv {
 
-inline constexpr std::uint32_t kStateFormatVersion = 3;  ///< 2: the displacement of the step before; 3: plasticity's rest shape
+inline constexpr std::uint32_t kStateFormatVersion = 4;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length
 
 struct StateCheckpoint {
     std::string dgvVersion;                  ///< DGV_VERSION_STRING of the writer

@@ -229,6 +229,12 @@ struct SceneDesc {
     int frameEnd = 1;
     Real fps = 24;
     int substeps = 1;
+    /// Adaptive substeps (Simulation::frameSubsteps): each frame takes between `substeps` and
+    /// `maxSubsteps`, enough that no point moves more than `cfl` lattice spacings in one substep
+    /// (nor a fifth of that from rest under the force), that δt √stiffness ≤ 1 and that the
+    /// twist stays within half its limiter. maxSubsteps = substeps: a fixed count.
+    int maxSubsteps = 16;
+    Real cfl = 1;
     std::vector<ObjectDesc> objects;
     std::vector<ForceDesc> forces;
     std::vector<ColliderDesc> colliders;

@@ -44,6 +44,7 @@ struct FrameStats {
     Real contactPrecision() const;
     Real contactRecall() const;
     StepReport lastStep;           ///< the last substep's report of the first body (stage times)
+    int substeps = 0;              ///< the substeps the frame was simulated at (0: not simulated)
 };
 
 class GlnNetwork;
@@ -63,8 +64,9 @@ public:
     /// initial velocity.
     bool active() const { return mActive; }
     /// Simulates frame `frame` (must be the frame after the last one; the first call's frame
-    /// must be frames.start + 1). Throws RuntimeError naming the frame, stage and object on
-    /// numerical trouble (an inverted affine part, a non-finite position).
+    /// must be frames.start + 1) at frameSubsteps() substeps. Throws RuntimeError naming the
+    /// frame, substep, object and fault on numerical trouble (the lattice folds, the affine part
+    /// inverts, a position becomes non-finite).
     FrameStats advanceTo(int frame);
     /// Figures of the current state without stepping (for frames.start).
     FrameStats currentStats(int frame) const;
@@ -91,6 +93,10 @@ public:
     void setSurfaceDistance(SurfaceDistance f) { mSurfaceDistance = std::move(f); }
 
 private:
+    /// Frame `frame` at `sub` substeps.
+    FrameStats simulateFrame(int frame, int sub);
+    /// The substeps of the next frame: adaptive between substeps and max_substeps (simulation.cpp).
+    int frameSubsteps(int frame) const;
     /// The colliders each body meets this substep: the scene's, then the surfaces of the other
     /// bodies near it, built from their predicted positions (after every body's predict).
     std::vector<std::vector<Collider>> substepColliders() const;

@@ -77,18 +77,19 @@ TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cach
     std::string line;
     REQUIRE(std::getline(f, line));
     CHECK(line == "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
-                  "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall");
+                  "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps");
     int rows = 0;
     while (std::getline(f, line)) {
         ++rows;
         std::vector<double> v;
         std::stringstream ss(line);
         for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-        REQUIRE(v.size() == 13);
+        REQUIRE(v.size() == 14);
         CHECK(v[0] == rows);           // frames 1..4
         CHECK(v[4] <= 1e-4);           // max_cell_volume_error
         CHECK(std::abs(v[5]) <= 1e-6); // total_volume_drift
         CHECK(v[6] == 0);              // no inverted cell
+        CHECK(v[13] == (rows == 1 ? 0 : 2));  // substeps: the scene's 2 (the first frame is not simulated)
     }
     CHECK(rows == 4);
     for (int frame = 1; frame <= 4; ++frame)

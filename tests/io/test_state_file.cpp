@@ -51,6 +51,7 @@ StateCheckpoint sample() {
     b.flex = Mat3::Identity() * 1.0000001;
     b.flexVelocity = Mat3::Constant(-2);
     b.plasticFlex << 1.25, 0.125, 0, 0, 0.8, 0, 0, 0, 1;
+    b.lastStep = 1.0 / 96;
     c.contactAges = {{}, {0, 1, 1 << 30, 7, 3}, {}};
     return c;
 }
@@ -106,6 +107,7 @@ TEST_CASE("state_file: a checkpoint round-trips bit for bit", "[io][checkpoint]"
     CHECK(a.flexVelocity == b.flexVelocity);
     CHECK(a.plasticFlex == b.plasticFlex);
     for (std::size_t k = 0; k < 3; ++k) CHECK(sameBits(a.plasticGamma[k], b.plasticGamma[k]));
+    CHECK(a.lastStep == b.lastStep);
     CHECK(r.contactAges == c.contactAges);
     // Writing what was read gives the same bytes.
     writeStateFile(dir.path() / "again.dgvstate", r);
