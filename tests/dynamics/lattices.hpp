@@ -40,6 +40,18 @@ inline ForceField gravityField() {
     return g;
 }
 
+/// A vortex about the vertical axis through `centre` (strength in m/s² at the radius, falloff 1).
+inline ForceTerm vortexTerm(Real strength, const Vec3& centre, Real radius) {
+    ForceTerm v;
+    v.kind = ForceKind::Vortex;
+    v.strength = Keyframes::constant(strength);
+    v.centre = centre;
+    v.axis = Vec3::UnitY();
+    v.radius = radius;
+    v.falloff = 1;
+    return v;
+}
+
 /// The ground plane y = 0 (normal +y, no friction, no restitution).
 inline Collider groundPlane() {
     Collider ground;

@@ -37,14 +37,7 @@ struct Drop {
         t.kind = ForceKind::Gravity;
         t.strength = Keyframes::constant(9.81);
         field.add(t);
-        ForceTerm v;  // shears the ball: δΓ, and cells whose volumes drift
-        v.kind = ForceKind::Vortex;
-        v.strength = Keyframes::constant(3);
-        v.centre = Vec3(0.2, 0, 0);
-        v.axis = Vec3::UnitY();
-        v.radius = 0.4;
-        v.falloff = 1;
-        field.add(v);
+        field.add(test::vortexTerm(3, Vec3(0.2, 0, 0), 0.4));  // shears the ball: δΓ, and cells whose volumes drift
         Collider ground;
         ground.kind = Collider::Kind::Plane;
         ground.point = Vec3::Zero();

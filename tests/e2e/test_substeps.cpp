@@ -175,15 +175,8 @@ TEST_CASE("substeps: the twist keeps its rate when the step length changes", "[d
     const Lattice lat = test::sphereLattice(4, 0.05, Vec3::Constant(-0.2));
     DynamicsSettings set;
     set.damping = 0;
-    ForceTerm v;
-    v.kind = ForceKind::Vortex;
-    v.strength = Keyframes::constant(4);
-    v.centre = Vec3(0.2, 0, 0);
-    v.axis = Vec3::UnitY();
-    v.radius = 0.4;
-    v.falloff = 1;
     ForceField vortex, none;
-    vortex.add(v);
+    vortex.add(test::vortexTerm(4, Vec3(0.2, 0, 0), 0.4));
     // the reference: 1/96 s for 24 steps (0.25 s); the change: 12 steps of 1/96, 24 of 1/192
     DeformableBody ref(lat, restPositions(lat), set), changed(lat, restPositions(lat), set);
     for (int s = 0; s < 24; ++s) REQUIRE(ref.step(s < 4 ? vortex : none, 1, Real(1) / 96, {}).fault.empty());
