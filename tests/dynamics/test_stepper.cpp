@@ -34,15 +34,8 @@ Lattice ballLattice(int radius, Real h, const Vec3& centre) {
 using test::boxLattice;
 
 ForceField vortexField(Real strength, const Vec3& centre, Real radius) {
-    ForceTerm t;
-    t.kind = ForceKind::Vortex;
-    t.strength = Keyframes::constant(strength);
-    t.centre = centre;
-    t.axis = Vec3::UnitY();
-    t.radius = radius;
-    t.falloff = 1;
     ForceField f;
-    f.add(t);
+    f.add(test::vortexTerm(strength, centre, radius));
     return f;
 }
 
