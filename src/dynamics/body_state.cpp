@@ -38,6 +38,8 @@ DeformableBodyState DeformableBody::saveState() const {
     s.plasticFlex = mPlasticFlex;
     s.plasticGamma = mPlasticGamma;
     s.lastStep = mDtLast;
+    s.loadAmplitude = mQ;
+    s.loadRate = mQdot;
     s.displacement = mDisplacement;
     s.displacementPrev = mDisplacementPrev;
     s.volumeCachePositions = mVolumeCache.builtFromPositions;
@@ -77,6 +79,8 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mPlasticFlex = s.plasticFlex;
     mPlasticGamma = std::move(s.plasticGamma);
     mDtLast = s.lastStep;
+    mQ = s.loadAmplitude;
+    mQdot = s.loadRate;
     mDisplacement = std::move(s.displacement);
     mDisplacementPrev = std::move(s.displacementPrev);
     // The geometric state is a function of the positions (the step ends by computing it so).

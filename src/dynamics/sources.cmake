@@ -4,4 +4,5 @@ list(APPEND DGV_DYNAMICS_SOURCES
   dynamics/body.cpp
   dynamics/stepper.cpp
   dynamics/body_state.cpp
+  dynamics/load_modes.cpp
 )

@@ -218,6 +218,7 @@ std::vector<std::string> DynamicsSettings::validate() const {
     positive(maxDeltaGamma, "max_delta_gamma");
     positive(volumeTolerance, "volume_tolerance");
     positive(reconstructTolerance, "reconstruct_tolerance");
+    positive(maxLoadStrain, "max_load_strain");
     return out;
 }
 
@@ -309,6 +310,7 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
     for (Index p = 0; p < n; ++p)
         if (fixed[at(p)]) mSolverFixed.push_back(p);
     mSolver = std::make_unique<PoissonSolver>(mLat, fixed);
+    if (mAnyPinned && mSet.pinnedLoad) mLoad = computeLoadModes(mLat, mX, mPinned, mCells, mRestVolumes, mMass, *mSolver);
     mRecWork = std::make_unique<ReconstructWork>();
     mRecWork->tree = spanningTree(mLat, fixed);
     mDisplacement.assign(at(n), Vec3::Zero());
@@ -497,6 +499,55 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         aNew = mA;
         mAdot.setZero();
     }
+    // 2b. A pinned body's load modes (file comment of load_modes.hpp): the amplitudes move
+    // under the load's share on each mode, the shape memory's stiffness and the damping
+    // (semi-implicit), up to the strain bound; the memory's target is the displaced rest shape.
+    // The load is what the pins refuse: the field's affine part over the body, a + K X̃ (the
+    // mass-weighted least-squares fit that drives body and flex, eqs 66-68); its curvature
+    // drives the twist (eq 76) as on a free body. Fed the whole field, an attractor pulling a
+    // pinned jelly stretched it twice over, by the mode and by the twist, and folded it.
+    Vec3 dq = Vec3::Zero();
+    if (!mLoad.empty()) {
+        using Acc9 = Eigen::Matrix<Real, 9, 1>;
+        const Acc9 first = parallelReduce(
+            n, Acc9(Acc9::Zero()),
+            [&](Acc9& acc, Index p) {
+                const Mat3 M = mMass[at(p)] * fs.value[at(p)] * mRestRel[at(p)].transpose();
+                acc += Eigen::Map<const Acc9>(M.data());
+            },
+            [](const Acc9& a, const Acc9& b) { return Acc9(a + b); });
+        const Mat3 K = Eigen::Map<const Mat3>(first.data()) / mTotalMass * mS0inv;
+        using Acc3 = Eigen::Matrix<Real, 3, 1>;
+        const Acc3 fq = parallelReduce(
+            n, Acc3(Acc3::Zero()),
+            [&](Acc3& acc, Index p) {
+                const Vec3 mf = mMass[at(p)] * (accel + K * mRestRel[at(p)]);
+                for (int i = 0; i < 3; ++i) acc[i] += mLoad.w[at(i)][at(p)].dot(mf);
+            },
+            [](const Acc3& a, const Acc3& b) { return Acc3(a + b); });
+        if (mSet.shapeStiffness > 0 && !mQ.isZero()) {
+            std::vector<Vec3> displaced(at(n));
+            parallelFor(n, [&](Index p) {
+                displaced[at(p)] = mPinnedPositions[at(p)] + mQ[0] * mLoad.w[0][at(p)] + mQ[1] * mLoad.w[1][at(p)] +
+                                   mQ[2] * mLoad.w[2][at(p)];
+            });
+            GeometricState target;
+            computeGeometricState(mLat, displaced, target);
+            mLoadGamma = std::move(target.christoffel);
+        } else {
+            for (auto& g : mLoadGamma) g.clear();
+        }
+        const Vec3 qdd = Vec3(mLoad.mass.ldlt().solve(fq)) - mSet.shapeStiffness * mQ;
+        mQdot = (mQdot + dt * qdd) / (1 + mSet.damping * dt);
+        Vec3 qNew = mQ + dt * mQdot;
+        const Real strain = qNew.cwiseAbs().dot(mLoad.strain);
+        if (strain > mSet.maxLoadStrain) {
+            qNew *= mSet.maxLoadStrain / strain;
+            mQdot = (qNew - mQ) / dt;
+        }
+        dq = qNew - mQ;
+        mQ = qNew;
+    }
     report.bodyFlexSeconds = since(t);
 
     // 3. Twist: eq 76 with W split into rotation and stretch (file comment).
@@ -520,6 +571,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         for (std::size_t c = 0; c < 3; ++c) {
             gamma[c] = mState.christoffel[c][i];
             if (!mPlasticGamma[c].empty()) gamma[c] -= mPlasticGamma[c][i];  // memory toward Γ_p
+            if (!mLoadGamma[c].empty()) gamma[c] -= mLoadGamma[c][i];        // ... displaced by the load modes
             dg[c] = mDGamma[c][i];
             hess[c] = fs.hessian[c][i];
         }
@@ -621,6 +673,10 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         parallelFor(n, [&](Index p) {
             if (mPinned[at(p)]) xNew[at(p)] = mPinnedPositions[at(p)];
         });
+        if (!dq.isZero())
+            parallelFor(n, [&](Index p) {
+                xNew[at(p)] += dq[0] * mLoad.w[0][at(p)] + dq[1] * mLoad.w[1][at(p)] + dq[2] * mLoad.w[2][at(p)];
+            });
     }
     report.reconstructSeconds = since(t);
     mXPred = std::move(xNew);

@@ -42,6 +42,7 @@
 #include "deform/volume.hpp"
 #include "dynamics/body_state.hpp"
 #include "dynamics/forces.hpp"
+#include "dynamics/load_modes.hpp"
 #include "geom/geometric_state.hpp"
 #include "geom/lattice.hpp"
 
@@ -109,6 +110,15 @@ struct DynamicsSettings {
     /// "Contact: body and flex take the collider's push first"), then single points. false: only
     /// single points move (measured: the bottom layer is crushed and folds; for comparison).
     bool affineContact = true;
+    /// A pinned body takes the uniform load its pins refuse through three smooth volume-keeping
+    /// modes (dynamics/load_modes.hpp; docs/math.md, "A pinned body under a uniform load"): it
+    /// sags under gravity. false: the notes' step alone (a uniform field does not move it).
+    bool pinnedLoad = true;
+    /// The load modes' largest cell strain (their amplitudes stop there): a linear mode
+    /// strained further folds the lattice where it meets the twist's own strain (measured: a
+    /// box held by its bottom face at stiffness 100 folded after 4 s at 0.5 and runs at 0.3;
+    /// `jelly_stretch`'s attractor folded it at 0.3 and runs at 0.2).
+    Real maxLoadStrain = 0.2;
     bool traceFree = true;            ///< the trace-free projection of δΓ (volume); off only for tests of eq 78
     Real volumeTolerance = 1e-5;      ///< volume projection: max_c |V/V0 − 1| after each step
     bool projectVolume = true;
@@ -274,6 +284,10 @@ public:
     const Mat3& plasticFlex() const { return mPlasticFlex; }
     const std::array<std::vector<Mat3>, 3>& plasticGamma() const { return mPlasticGamma; }
     Real gammaYield() const { return mGammaYield; }  ///< the yield of |Γ − Γ_p| per lattice step (0: off)
+    /// The pinned body's load modes (empty when none) and their amplitudes q (m) and rates q̇.
+    const LoadModes& loadModes() const { return mLoad; }
+    const Vec3& loadAmplitude() const { return mQ; }
+    const Vec3& loadRate() const { return mQdot; }
     /// Σ_p Σ_cab (δΓ^c_ab)² now.
     Real sumDeltaGamma2() const;
     /// Volume figures of the current positions.
@@ -320,6 +334,11 @@ private:
     std::array<std::vector<Mat3>, 3> mPlasticGamma;   ///< Γ_p per point (#P each; empty when off)
     Real mGammaYield = 0;  ///< the yield of |Γ − Γ_p| per lattice step: yieldStrain / the radius of gyration in steps
     void yieldRestShape();  ///< returns P and Γ_p to within the yield (end of finish)
+
+    // A pinned body's load modes (DynamicsSettings::pinnedLoad): shapes, amplitudes, rates.
+    LoadModes mLoad;
+    Vec3 mQ = Vec3::Zero(), mQdot = Vec3::Zero();
+    std::array<std::vector<Mat3>, 3> mLoadGamma;  ///< Γ of the rest shape displaced by Σ q_i w_i (work)
 
     std::vector<Index> mSolverFixed;  ///< the reconstruction's reference points (pins, or a centre point per component)
     std::unique_ptr<PoissonSolver> mSolver;

@@ -127,6 +127,8 @@ void writeBody(Writer& w, const DeformableBodyState& s) {
     w.value(s.plasticFlex);
     for (const auto& g : s.plasticGamma) w.array(g);
     w.value(s.lastStep);
+    w.value(s.loadAmplitude);
+    w.value(s.loadRate);
     w.array(s.displacement);
     w.array(s.displacementPrev);
     w.array(s.volumeCachePositions);
@@ -159,6 +161,9 @@ void readBody(Reader& r, DeformableBodyState& s) {
     for (auto& g : s.plasticGamma) r.array(g);
     s.lastStep = r.value<Real>();
     if (!(s.lastStep >= 0) || !std::isfinite(s.lastStep)) r.ok = false;
+    s.loadAmplitude = r.value<Vec3>();
+    s.loadRate = r.value<Vec3>();
+    if (!s.loadAmplitude.allFinite() || !s.loadRate.allFinite()) r.ok = false;
     r.array(s.displacement);
     r.array(s.displacementPrev);
     r.array(s.volumeCachePositions);

@@ -175,7 +175,8 @@ namespace {
 /// x(q) - x(p) = step(p, slot) given as a function.
 template <typename Step>
 SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&& step,
-                         std::vector<Vec3>& positions, Real tolerance, int maxIterations) {
+                         std::vector<Vec3>& positions, Real tolerance, int maxIterations,
+                         const std::vector<Vec3>* load = nullptr) {
     const auto start = std::chrono::steady_clock::now();
     SolveReport report;
     const Index n = static_cast<Index>(m.freePoints.size());
@@ -210,6 +211,7 @@ SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&
             if (m.fixed[at(q)]) s += positions[at(q)];
         }
         scale2[at(r)] = Real(count) * s2;
+        if (load) s += (*load)[at(p)];
         for (int c = 0; c < kCols; ++c) {
             b[at(r) * kCols + std::size_t(c)] = c < 3 ? s[c] : Real(0);
             x[at(r) * kCols + std::size_t(c)] = c < 3 ? positions[at(p)][c] : Real(0);
@@ -256,6 +258,15 @@ SolveReport PoissonSolver::solveSteps(const Lattice& lat, const std::array<std::
             return -forward[axis][at(lat.neighbours[at(p)][at(slot)])];
         },
         positions, tolerance, maxIterations);
+}
+
+SolveReport PoissonSolver::solveLoad(const Lattice& lat, const std::vector<Vec3>& load,
+                                     std::vector<Vec3>& positions, Real tolerance, int maxIterations) const {
+    DGV_CHECK_EQ(lat.size(), mImpl->points);
+    DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
+    DGV_CHECK_EQ(static_cast<Index>(load.size()), lat.size());
+    return solvePoisson(
+        *mImpl, lat, [](Index, int) -> Vec3 { return Vec3::Zero(); }, positions, tolerance, maxIterations, &load);
 }
 
 }  // namespace dgv

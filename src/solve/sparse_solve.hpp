@@ -60,6 +60,13 @@ public:
                            std::vector<Vec3>& positions, Real tolerance = Real(1e-8),
                            int maxIterations = 200) const;
 
+    /// L x = f on the free points, the fixed points holding the values in `positions`: the
+    /// lattice's discrete Poisson problem with the load f (#P, one vector per point; entries of
+    /// fixed points are ignored), e.g. the static response of a membrane-like body held at its
+    /// fixed points (dynamics/load_modes.hpp). Residual relative to |f| over the free points.
+    SolveReport solveLoad(const Lattice& lat, const std::vector<Vec3>& load, std::vector<Vec3>& positions,
+                          Real tolerance = Real(1e-8), int maxIterations = 200) const;
+
     /// The Path positions (reconstruct.hpp) from the fixed points, which must already hold
     /// their values in `positions` (#P, in/out): x(q) = x(parent) + D_parent,q along the
     /// breadth-first tree from the fixed points (point order, slot order), the tree cached at
