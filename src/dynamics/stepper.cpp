@@ -526,14 +526,17 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
             },
             [](const Acc3& a, const Acc3& b) { return Acc3(a + b); });
         if (mSet.shapeStiffness > 0 && !mQ.isZero()) {
-            std::vector<Vec3> displaced(at(n));
-            parallelFor(n, [&](Index p) {
-                displaced[at(p)] = mPinnedPositions[at(p)] + mQ[0] * mLoad.w[0][at(p)] + mQ[1] * mLoad.w[1][at(p)] +
-                                   mQ[2] * mLoad.w[2][at(p)];
-            });
-            GeometricState target;
-            computeGeometricState(mLat, displaced, target);
-            mLoadGamma = std::move(target.christoffel);
+            if (mLoadGamma[0].empty() || mQ != mQTarget) {
+                std::vector<Vec3> displaced(at(n));
+                parallelFor(n, [&](Index p) {
+                    displaced[at(p)] = mPinnedPositions[at(p)] + mQ[0] * mLoad.w[0][at(p)] + mQ[1] * mLoad.w[1][at(p)] +
+                                       mQ[2] * mLoad.w[2][at(p)];
+                });
+                GeometricState target;
+                computeGeometricState(mLat, displaced, target);
+                mLoadGamma = std::move(target.christoffel);
+                mQTarget = mQ;
+            }
         } else {
             for (auto& g : mLoadGamma) g.clear();
         }

@@ -339,6 +339,7 @@ private:
     LoadModes mLoad;
     Vec3 mQ = Vec3::Zero(), mQdot = Vec3::Zero();
     std::array<std::vector<Mat3>, 3> mLoadGamma;  ///< Γ of the rest shape displaced by Σ q_i w_i (work)
+    Vec3 mQTarget = Vec3::Zero();                 ///< the q mLoadGamma was computed for
 
     std::vector<Index> mSolverFixed;  ///< the reconstruction's reference points (pins, or a centre point per component)
     std::unique_ptr<PoissonSolver> mSolver;
