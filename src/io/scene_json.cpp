@@ -369,6 +369,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 m.fail("yield", "needs a 'stiffness' > 0 (goo has no rest shape to yield; it flows at any strain)");
             d.material.volumeTolerance = m.number("volume_tolerance", d.material.volumeTolerance, 1e-12, 0.1);
             d.material.maxDeltaGamma = m.number("max_delta_gamma", d.material.maxDeltaGamma, 0, 1, true);
+            d.material.pinnedLoad = m.boolean("pinned_load", d.material.pinnedLoad);
         });
         d.velocity = o.vec3("velocity", d.velocity);
         d.spinDegrees = o.vec3("spin", d.spinDegrees);

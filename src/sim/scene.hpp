@@ -44,6 +44,7 @@ struct MaterialDesc {
     Real yield = 0;             ///< plasticity: the largest elastic log strain (0: off; needs stiffness)
     Real volumeTolerance = 1e-5; ///< the volume projection's max |V/V0 − 1| per cell after a step
     Real maxDeltaGamma = 0.05;  ///< limiter on the connection change per step
+    bool pinnedLoad = true;     ///< a pinned body's load modes (DynamicsSettings::pinnedLoad)
 };
 
 /// Material points held fixed: those whose rest position lies in a box or a ball (world units),

@@ -79,6 +79,7 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         set.yieldStrain = o.material.yield;
         set.volumeTolerance = o.material.volumeTolerance;
         set.maxDeltaGamma = o.material.maxDeltaGamma;
+        set.pinnedLoad = o.material.pinnedLoad;
         std::vector<unsigned char> pinned(at(lat.size()), 0);
         if (o.pin.kind == PinDesc::Kind::Group) {
             // The material points that carry the group's vertices: the corners of a vertex's

@@ -259,6 +259,13 @@ TEST_CASE("scene_json: material keys map onto the object", "[io][scene]") {
     CHECK(m.maxDeltaGamma == Approx(0.1));
     CHECK(m.volumeTolerance == Approx(2e-6));
     CHECK(m.yield == 0);  // elastic unless asked
+    CHECK(m.pinnedLoad);  // a pinned body sags unless asked not to
+    CHECK_FALSE(parseScene(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"pinned_load": false}}]})",
+                           "dir/scene.json")
+                    .objects[0]
+                    .material.pinnedLoad);
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"pinned_load": 1}}]})"),
+               Catch::Contains("objects[0].material.pinned_load: expected true or false"));
     const SceneDesc putty = parseScene(
         R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 1000, "yield": 0.1}}]})", "dir/scene.json");
     CHECK(putty.objects[0].material.yield == Approx(0.1));
