@@ -215,6 +215,10 @@ TEST_CASE("load modes: off, or with nothing pinned, a body moves as before", "[d
     CHECK(moved < 1e-12);
     DeformableBody free(c.lat, restPositions(c.lat), jelly(200, 4));
     CHECK(free.loadModes().empty());
+    DeformableBody held(c.lat, restPositions(c.lat), jelly(200, 4), std::vector<unsigned char>(at(c.lat.size()), 1));
+    CHECK(held.loadModes().empty());  // nothing free to move
+    for (int s = 0; s < 4; ++s) REQUIRE(held.step(g, 1, 1.0 / 48, {}).fault.empty());
+    CHECK(held.positions() == restPositions(c.lat));
 }
 
 TEST_CASE("load modes: a checkpoint restores the modes' amplitudes and the run continues bit-identically",
