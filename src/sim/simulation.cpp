@@ -371,11 +371,20 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             return "frame " + std::to_string(frame) + ", substep " + std::to_string(k + 1) + " of " +
                    std::to_string(sub) + ", object '" + mScene.objects[i].name + "'";
         };
+        // A pinned body with load modes that faults may be one held by a small patch (docs/math.md,
+        // "What the step does not do yet"): the fault says what keeps it rigid instead.
+        auto fault = [&](std::size_t i, const std::string& what) {
+            std::string text = "dynamics: " + where(i) + ": " + what;
+            if (!mBodies[i]->loadModes().empty())
+                text += " (a pinned body held by a small patch is unstable: pin a face several voxels deep, or set "
+                        "material.pinned_load to false to hold it rigid)";
+            return RuntimeError(text);
+        };
         // Every body's prediction first, so the bodies meet each other where they are going.
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
             if (!mBodies[i]) continue;
             const StepReport r = mBodies[i]->predict(mField, fieldFrame, dt);
-            if (!r.fault.empty()) throw RuntimeError("dynamics: " + where(i) + ": " + r.fault);
+            if (!r.fault.empty()) throw fault(i, r.fault);
         }
         const std::vector<std::vector<Collider>> colliders = substepColliders();
         std::vector<unsigned char> staticContact(mBodies.size(), 0);
@@ -383,7 +392,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             if (!mBodies[i]) continue;
             const StepReport r = mBodies[i]->finish(colliders[i]);
             staticContact[i] = r.staticContact ? 1 : 0;
-            if (!r.fault.empty()) throw RuntimeError("dynamics: " + where(i) + ": " + r.fault);
+            if (!r.fault.empty()) throw fault(i, r.fault);
             for (const Vec3& x : mBodies[i]->positions())
                 if (!allFiniteNoTrap(x))
                     throw RuntimeError("dynamics: " + where(i) + ": a position became non-finite; use more substeps or damping");
