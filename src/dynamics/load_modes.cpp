@@ -2,6 +2,7 @@
 
 #include "base/check.hpp"
 #include "base/parallel.hpp"
+#include "dynamics/body.hpp"
 #include "solve/sparse_solve.hpp"
 
 #include <algorithm>
@@ -134,7 +135,6 @@ LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest,
             rr = rrNew;
             parallelFor(nc, [&](Index c) { d[at(c)] = r[at(c)] + beta * d[at(c)]; });
         }
-        modes.iterations += it;
         parallelFor(n, [&](Index p) { w[at(p)] = moves[at(p)] ? Vec3(w[at(p)] - U[at(p)]) : Vec3(Vec3::Zero()); });
         // Polish: the cells' volume change of w, left by the loose solve above (mostly its
         // checkerboard part, which the Schur complement's CG resolves slowest), removed by
@@ -156,9 +156,6 @@ LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest,
             (void)projectVolumes(cells, restVolumes, held, x[side], vs);
         }
         parallelFor(n, [&](Index p) { w[at(p)] = (x[0][at(p)] - x[1][at(p)]) / (2 * eps); });
-        std::vector<Real> check;
-        applyJ(w, check);
-        if (r0 > 0) modes.divergence = std::max(modes.divergence, std::sqrt(dot(check, check)) / r0);
         Real largest = 0;
         for (const Vec3& v : w) largest = std::max(largest, v.norm());
         if (!(largest > 0)) return LoadModes();
@@ -171,6 +168,16 @@ LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest,
                 n, Real(0),
                 [&](Real& acc, Index p) { acc += mass[at(p)] * modes.w[at(i)][at(p)].dot(modes.w[at(j)][at(p)]); },
                 [](Real a, Real b) { return a + b; });
+    // The sums that give an affine load's share on each mode (X̃ about the centre of mass).
+    const Vec3 centre = centreOfMass(mass, rest);  // as the body's X̃ (stepper.cpp)
+    for (std::size_t i = 0; i < 3; ++i) {
+        modes.massSum[i].setZero();
+        modes.firstMoment[i].setZero();
+        for (Index p = 0; p < n; ++p) {
+            modes.massSum[i] += mass[at(p)] * modes.w[i][at(p)];
+            modes.firstMoment[i] += mass[at(p)] * modes.w[i][at(p)] * (rest[at(p)] - centre).transpose();
+        }
+    }
     // The largest strain per unit amplitude: the cell's displacement gradient from the mean of
     // its four edges along each lattice axis (Frobenius norm), per metre.
     const Real h = lat.spacing;

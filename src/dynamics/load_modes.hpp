@@ -38,8 +38,10 @@ struct LoadModes {
     std::array<std::vector<Vec3>, 3> w;  ///< #P each, world units per unit amplitude (empty: none)
     Mat3 mass = Mat3::Zero();            ///< M_q = Σ_p m_p w_i(p) · w_j(p), kg
     Vec3 strain = Vec3::Zero();          ///< per mode: the largest cell strain per unit amplitude, 1/m
-    int iterations = 0;                  ///< Schur-complement CG iterations, summed over the modes
-    Real divergence = 0;                 ///< max over modes of |J w| / |J w0| left (relative)
+    /// Per mode, what an affine load a + K X̃ (X̃ = rest position about the centre of mass) puts on
+    /// it: Σ_p m_p w_i(p) · (a + K X̃_p) = a · massSum[i] + K : firstMoment[i].
+    std::array<Vec3, 3> massSum{};       ///< Σ_p m_p w_i(p), kg
+    std::array<Mat3, 3> firstMoment{};   ///< Σ_p m_p w_i(p) X̃_pᵀ, kg m
     bool empty() const { return w[0].empty(); }
 };
 

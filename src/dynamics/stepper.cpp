@@ -450,24 +450,27 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     // 2. Body and flex (Störmer-Verlet; flex projected onto SL(3)).
     t = Clock::now();
     const Mat3 L0 = mAdot * mA.inverse();  // the affine velocity gradient before the step
-    using Acc = Eigen::Matrix<Real, 12, 1>;
+    // Σ m F, the first moment Σ m F X̃ᵀ (the flex's drive, and a pinned body's load), and with
+    // FlexDrive::Gradient Σ m ∇F.
+    using Acc = Eigen::Matrix<Real, 21, 1>;
+    const bool byGradient = mSet.flexDrive != FlexDrive::FirstMoment;
     const Acc mom = parallelReduce(
         n, Acc(Acc::Zero()),
         [&](Acc& acc, Index p) {
             const Real m = mMass[at(p)];
             const Vec3& F = fs.value[at(p)];
             acc.head<3>() += m * F;
-            if (mSet.flexDrive == FlexDrive::FirstMoment) {
-                const Mat3 M = m * F * mRestRel[at(p)].transpose();
-                acc.tail<9>() += Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(M.data());
-            } else {
-                const Mat3 M = m * fs.gradient[at(p)];
-                acc.tail<9>() += Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(M.data());
+            const Mat3 M = m * F * mRestRel[at(p)].transpose();
+            acc.segment<9>(3) += Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(M.data());
+            if (byGradient) {
+                const Mat3 G = m * fs.gradient[at(p)];
+                acc.tail<9>() += Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(G.data());
             }
         },
         [](const Acc& a, const Acc& b) { return Acc(a + b); });
     const Vec3 accel = mom.head<3>() / mTotalMass;
-    const Mat3 moment = Eigen::Map<const Mat3>(mom.tail<9>().data()) / mTotalMass;
+    const Mat3 firstMoment = Eigen::Map<const Mat3>(mom.segment<9>(3).data()) / mTotalMass;
+    const Mat3 moment = byGradient ? Mat3(Eigen::Map<const Mat3>(mom.tail<9>().data()) / mTotalMass) : firstMoment;
     Mat3 flexAccel = mSet.flexDrive == FlexDrive::FirstMoment ? Mat3(moment * mS0inv) : Mat3(moment * mA);
     if (mSet.shapeStiffness > 0) {
         if (mSet.yieldStrain > 0) {
@@ -506,25 +509,14 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     // mass-weighted least-squares fit that drives body and flex, eqs 66-68); its curvature
     // drives the twist (eq 76) as on a free body. Fed the whole field, an attractor pulling a
     // pinned jelly stretched it twice over, by the mode and by the twist, and folded it.
+    // Being affine, the load's share on mode i is a · Σ m w_i + K : Σ m w_i X̃ᵀ (both sums fixed
+    // at setup, LoadModes): no pass over the points.
     Vec3 dq = Vec3::Zero();
     if (!mLoad.empty()) {
-        using Acc9 = Eigen::Matrix<Real, 9, 1>;
-        const Acc9 first = parallelReduce(
-            n, Acc9(Acc9::Zero()),
-            [&](Acc9& acc, Index p) {
-                const Mat3 M = mMass[at(p)] * fs.value[at(p)] * mRestRel[at(p)].transpose();
-                acc += Eigen::Map<const Acc9>(M.data());
-            },
-            [](const Acc9& a, const Acc9& b) { return Acc9(a + b); });
-        const Mat3 K = Eigen::Map<const Mat3>(first.data()) / mTotalMass * mS0inv;
-        using Acc3 = Eigen::Matrix<Real, 3, 1>;
-        const Acc3 fq = parallelReduce(
-            n, Acc3(Acc3::Zero()),
-            [&](Acc3& acc, Index p) {
-                const Vec3 mf = mMass[at(p)] * (accel + K * mRestRel[at(p)]);
-                for (int i = 0; i < 3; ++i) acc[i] += mLoad.w[at(i)][at(p)].dot(mf);
-            },
-            [](const Acc3& a, const Acc3& b) { return Acc3(a + b); });
+        const Mat3 K = firstMoment * mS0inv;
+        Vec3 fq;
+        for (std::size_t i = 0; i < 3; ++i)
+            fq[static_cast<Index>(i)] = accel.dot(mLoad.massSum[i]) + K.cwiseProduct(mLoad.firstMoment[i]).sum();
         if (mSet.shapeStiffness > 0 && !mQ.isZero()) {
             if (mLoadGamma[0].empty() || mQ != mQTarget) {
                 std::vector<Vec3> displaced(at(n));
