@@ -657,12 +657,18 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     }
     std::vector<Vec3> xNew(at(n));
     parallelFor(n, [&](Index p) { xNew[at(p)] = mX[at(p)] + mDisplacement[at(p)]; });
-    // The gauge: a free body's affine part and centre are the flex and body state.
+    // The gauge: a free body's affine part and centre are the flex and body state. The map
+    // keeps the volume: the affine fit B of a body whose cells keep their volumes need not have
+    // det 1 (a swirled ball's fit shrinks), and mapping B onto the flex A (det 1) scaled every
+    // cell by 1/det B, an error the volume projection then undid each step (the vortex
+    // benchmark: 4e-3 a step by step 27, and a second Gauss-Newton iteration). (det B)^(1/3) A B⁻¹
+    // has det 1: the fit's SL(3) part becomes A (docs/math.md, "The gauge keeps the volume").
     if (!mAnyPinned) {
         Vec3 yc;
         Mat3 B;
         fitAffine(xNew, yc, B);
-        const Mat3 map = aNew * B.inverse();
+        const Real detB = B.determinant();
+        const Mat3 map = (detB > 0 ? std::cbrt(detB) : Real(1)) * aNew * B.inverse();
         parallelFor(n, [&](Index p) { xNew[at(p)] = cNew + map * (xNew[at(p)] - yc); });
     } else {
         parallelFor(n, [&](Index p) {
@@ -988,7 +994,12 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         Vec3 c1;
         Mat3 A1;
         fitAffine(xNew, c1, A1);
-        const Sl3Result r1 = projectToSL3(A1);
+        // The flex is the fit's SL(3) part, A1 / (det A1)^(1/3), as the gauge of a free step
+        // makes it ("The gauge keeps the volume"). The nearest SL(3) matrix differs from it where
+        // the fit is anisotropic and det A1 ≠ 1 (a jelly resting on the ground: det 0.996), and a
+        // body whose steps alternate between contact and none would switch between the two
+        // definitions, their difference showing as a flex rate.
+        const Sl3Result r1 = projectToSL3Scale(A1);
         if (r1.ok) A1 = r1.matrix;
         mVc = (c1 - mC) / dt;
         mAdot = (A1 - mA) / dt;
