@@ -106,6 +106,12 @@ struct VolumeProjectionSettings {
     /// momentum (each cell's push sums to zero over its corners, and mass-weighted displacements
     /// are what momentum counts). Empty: all 1.
     const std::vector<Real>* weights = nullptr;
+    /// Optional #C multipliers, in and out. In: a prediction of this call's (a dynamic step's
+    /// volume correction changes little from step to step: the caller extrapolates the last
+    /// ones), applied first as a Gauss-Newton step without a linear solve, dx = −W Jᵀ λ, and
+    /// kept only if it lowers the largest cell error; any other size: none. Out: the multipliers
+    /// applied in total (the kept prediction plus each Gauss-Newton step's; 0 for inactive cells).
+    std::vector<Real>* multipliers = nullptr;
 };
 
 /// The pinned flag of a point that slides (VolumeProjectionSettings::slideNormals); 1: fixed.
@@ -116,6 +122,7 @@ struct [[nodiscard]] VolumeProjectionReport {
     bool converged = false;
     int iterations = 0;          ///< Gauss-Newton iterations taken
     int linearIterations = 0;    ///< CG iterations, summed over the Gauss-Newton iterations
+    int predicted = 0;           ///< 1 when the caller's predicted multipliers were applied (kept)
     Real maxErrorBefore = 0;     ///< max_c |V_c / V0_c - 1| on entry, over the constrainable cells
     Real maxErrorAfter = 0;      ///< ... on return (cells with all 8 corners pinned are left out:
                                  ///< nothing may move them)

@@ -42,6 +42,8 @@ DeformableBodyState DeformableBody::saveState() const {
     s.loadRate = mQdot;
     s.displacement = mDisplacement;
     s.displacementPrev = mDisplacementPrev;
+    s.volumeLambda = mVolumeLambda;
+    s.volumeLambdaPrev = mVolumeLambdaPrev;
     s.volumeCachePositions = mVolumeCache.builtFromPositions;
     s.volumeCachePinned = mVolumeCache.builtFromPinned;
     return s;
@@ -49,11 +51,14 @@ DeformableBodyState DeformableBody::saveState() const {
 
 bool DeformableBody::stateFits(const DeformableBodyState& s) const {
     const std::size_t n = static_cast<std::size_t>(mLat.size());
+    const std::size_t cells = static_cast<std::size_t>(mCells.size());
     bool ok = s.positions.size() == n && s.velocities.size() == n && s.contact.size() == n &&
               s.contactDepth.size() == n && s.displacement.size() == n && s.displacementPrev.size() == n &&
               (s.volumeCachePositions.empty() || s.volumeCachePositions.size() == n) &&
               (s.volumeCachePinned.empty() || s.volumeCachePinned.size() == n) &&
-              (!s.volumeCachePinned.empty() ? !s.volumeCachePositions.empty() : true);
+              (!s.volumeCachePinned.empty() ? !s.volumeCachePositions.empty() : true) &&
+              (s.volumeLambda.empty() || s.volumeLambda.size() == cells) &&
+              (s.volumeLambdaPrev.empty() || s.volumeLambdaPrev.size() == cells);
     for (std::size_t a = 0; a < 3; ++a) {
         ok = ok && s.deltaGamma[a].size() == n;
         ok = ok && s.plasticGamma[a].size() == mPlasticGamma[a].size();  // n with plasticity, else 0
@@ -83,6 +88,8 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mQdot = s.loadRate;
     mDisplacement = std::move(s.displacement);
     mDisplacementPrev = std::move(s.displacementPrev);
+    mVolumeLambda = std::move(s.volumeLambda);
+    mVolumeLambdaPrev = std::move(s.volumeLambdaPrev);
     // The geometric state is a function of the positions (the step ends by computing it so).
     computeGeometricState(mLat, mX, mState);
     mVolumeCache.builtFromPositions = std::move(s.volumeCachePositions);

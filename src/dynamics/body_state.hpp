@@ -41,6 +41,8 @@ struct DeformableBodyState {
     Vec3 loadRate = Vec3::Zero();                ///< ... and their rates q̇, m/s
     std::vector<Vec3> displacement;              ///< #P: the reconstruction's warm start
     std::vector<Vec3> displacementPrev;          ///< #P: the displacement of the step before (extrapolated warm start)
+    std::vector<Real> volumeLambda;              ///< #C or empty: the last step's volume multipliers (the next one's prediction)
+    std::vector<Real> volumeLambdaPrev;          ///< #C or empty: the step's before
     std::vector<Vec3> volumeCachePositions;      ///< VolumeProjectionCache::builtFromPositions (#P or empty)
     std::vector<unsigned char> volumeCachePinned;  ///< VolumeProjectionCache::builtFromPinned (#P or empty)
 };

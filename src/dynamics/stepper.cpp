@@ -390,6 +390,8 @@ void DeformableBody::rescaleStep(Real ratio) {
     // δΓ and the twist displacements (the warm start) are changes per step: ∝ the step's length
     // at the same rate. The frames' last step F F_prev⁻¹ = exp(δt L) becomes exp(r δt L) to first
     // order: F_prev ← F − r (F − F_prev).
+    for (Real& l : mVolumeLambda) l *= ratio;  // the volume correction a step: ∝ its length too (measured)
+    for (Real& l : mVolumeLambdaPrev) l *= ratio;
     parallelFor(mLat.size(), [&](Index p) {
         const std::size_t i = at(p);
         for (auto& g : mDGamma) g[i] *= ratio;
@@ -969,7 +971,21 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         }
         VolumeProjectionSettings vs = volumeSettings();  // also used by restoreState
         if (!slideNormal.empty()) vs.slideNormals = &slideNormal;
+        // The multipliers' prediction: the last two steps' extrapolated, 2 λ_n − λ_(n−1) (file
+        // comment of volume.hpp; docs/math.md, "The volume correction predicted").
+        const std::size_t nc = at(mCells.size());
+        std::vector<Real> lambda;
+        if (mVolumeLambda.size() == nc) {
+            lambda.resize(nc);
+            const bool two = mVolumeLambdaPrev.size() == nc;
+            parallelFor(mCells.size(), [&](Index c) {
+                lambda[at(c)] = two ? 2 * mVolumeLambda[at(c)] - mVolumeLambdaPrev[at(c)] : mVolumeLambda[at(c)];
+            });
+        }
+        vs.multipliers = &lambda;
         const VolumeProjectionReport vr = projectVolumes(mCells, mRestVolumes, held, xNew, vs);
+        mVolumeLambdaPrev = std::move(mVolumeLambda);
+        mVolumeLambda = std::move(lambda);
         report.volumeIterations = vr.iterations;
         report.volumeConverged = vr.converged;
     }

@@ -346,6 +346,8 @@ private:
     std::unique_ptr<ReconstructWork> mRecWork;  ///< the solver's spanning tree and work arrays (stepper.cpp)
     std::vector<Vec3> mDisplacement;  ///< last step's twist displacement (warm start)
     std::vector<Vec3> mDisplacementPrev;  ///< the one before (the warm start extrapolates)
+    std::vector<Real> mVolumeLambda;      ///< #C: the last step's volume multipliers (the next step's prediction)
+    std::vector<Real> mVolumeLambdaPrev;  ///< the step's before (the prediction extrapolates)
     // Between predict and finish:
     bool mPredicted = false;
     std::vector<Vec3> mXPred;         ///< the predicted positions

@@ -131,6 +131,8 @@ void writeBody(Writer& w, const DeformableBodyState& s) {
     w.value(s.loadRate);
     w.array(s.displacement);
     w.array(s.displacementPrev);
+    w.array(s.volumeLambda);
+    w.array(s.volumeLambdaPrev);
     w.array(s.volumeCachePositions);
     w.array(s.volumeCachePinned);
 }
@@ -166,6 +168,8 @@ void readBody(Reader& r, DeformableBodyState& s) {
     if (!s.loadAmplitude.allFinite() || !s.loadRate.allFinite()) r.ok = false;
     r.array(s.displacement);
     r.array(s.displacementPrev);
+    r.array(s.volumeLambda);
+    r.array(s.volumeLambdaPrev);
     r.array(s.volumeCachePositions);
     r.array(s.volumeCachePinned);
 }

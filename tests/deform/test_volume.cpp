@@ -467,3 +467,79 @@ TEST_CASE("volume: weighted by inverse masses with sliding contact points, the p
     }
     for (Index q = 0; q < n; ++q) REQUIRE(x[q] == z[q]);
 }
+
+TEST_CASE("volume: the last calls' multipliers predict the next call's; a prediction that does not help changes "
+          "nothing",
+          "[deform][volume]") {
+    // A dynamics-like sequence: each call corrects the volume change of the same smooth
+    // increment (a dilation growing along x and a twist about z) added to the last result, so
+    // consecutive multipliers are alike (the stepper's case: docs/math.md, "The volume
+    // correction predicted").
+    const Real R = 10;
+    const Lattice lat = sphereLattice(R);
+    const LatticeCells cells = buildCells(lat);
+    const std::vector<Vec3> x0 = restPositions(lat);
+    const std::vector<Real> v0 = cellVolumes(cells, x0);
+    auto increment = [&](std::vector<Vec3>& x) {
+        for (std::size_t i = 0; i < x.size(); ++i) {
+            const Vec3 u = x0[i] / R;
+            x[i] += 2e-4 * (1 + u.x()) * x0[i] + 0.004 * u.z() * Vec3(-x0[i].y(), x0[i].x(), 0);
+        }
+    };
+    VolumeProjectionCache cache;
+    VolumeProjectionSettings s;
+    s.tolerance = 1e-5;
+    s.cache = &cache;
+    std::vector<Vec3> x = x0;
+    std::vector<Real> last, before;
+    for (int k = 0; k < 3; ++k) {
+        increment(x);
+        std::vector<Real> lambda;  // empty: no prediction
+        s.multipliers = &lambda;
+        const VolumeProjectionReport r = projectVolumes(cells, v0, {}, x, s);
+        REQUIRE(r.converged);
+        CHECK(r.predicted == 0);
+        REQUIRE(lambda.size() == static_cast<std::size_t>(cells.size()));
+        before = std::move(last);
+        last = std::move(lambda);
+    }
+    increment(x);
+    // without a prediction
+    std::vector<Vec3> plain = x;
+    std::vector<Real> none;
+    s.multipliers = &none;
+    const VolumeProjectionReport r0 = projectVolumes(cells, v0, {}, plain, s);
+    // with the extrapolated one, 2 λ_n − λ_(n−1)
+    std::vector<Vec3> guided = x;
+    std::vector<Real> guess(last.size());
+    for (std::size_t c = 0; c < guess.size(); ++c) guess[c] = 2 * last[c] - before[c];
+    s.multipliers = &guess;
+    const VolumeProjectionReport r1 = projectVolumes(cells, v0, {}, guided, s);
+    // a prediction of the wrong sign: refused, and the call is the plain one, bit for bit
+    std::vector<Vec3> misled = x;
+    std::vector<Real> wrong(last.size());
+    for (std::size_t c = 0; c < wrong.size(); ++c) wrong[c] = -3 * last[c];
+    s.multipliers = &wrong;
+    const VolumeProjectionReport r2 = projectVolumes(cells, v0, {}, misled, s);
+    if (verbose())
+        std::printf("predicted multipliers: %.3e -> %.3e in %d GN / %d CG without, %.3e in %d GN / %d CG with; "
+                    "wrong sign: predicted %d\n",
+                    r0.maxErrorBefore, r0.maxErrorAfter, r0.iterations, r0.linearIterations, r1.maxErrorAfter,
+                    r1.iterations, r1.linearIterations, r2.predicted);
+    CHECK(r0.maxErrorBefore > 1e-4);
+    CHECK(r0.converged);
+    CHECK(r1.converged);
+    CHECK(r1.predicted == 1);
+    CHECK(r1.maxErrorAfter <= 1e-5);
+    CHECK(r1.linearIterations < r0.linearIterations);
+    const std::vector<Real> v = cellVolumes(cells, guided);
+    Real worst = 0;
+    for (Index c = 0; c < cells.size(); ++c) worst = std::max(worst, std::abs(v[c] / v0[c] - 1));
+    CHECK(worst <= 1e-5);
+    CHECK(r2.predicted == 0);
+    CHECK(r2.iterations == r0.iterations);
+    CHECK(r2.linearIterations == r0.linearIterations);
+    for (std::size_t i = 0; i < x.size(); ++i) REQUIRE(misled[i] == plain[i]);
+    REQUIRE(wrong.size() == none.size());
+    for (std::size_t c = 0; c < none.size(); ++c) REQUIRE(wrong[c] == none[c]);
+}
