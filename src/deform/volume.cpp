@@ -340,7 +340,7 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
             if (errGuess < err) {
                 err = errGuess;
                 drift = driftOf();
-                applied = guess;
+                parallelFor(nc, [&](Index c) { applied[at(c)] = active[at(c)] ? guess[at(c)] : Real(0); });
                 ++report.predicted;
             } else {
                 positions = entry;
