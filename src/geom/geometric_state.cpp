@@ -28,7 +28,8 @@ struct AxisDerivative {
 
 /// The 1-D stencils of geometric_state.hpp for field f at point p along axis a.
 template <typename T, bool kSecond>
-AxisDerivative<T> axisDerivative(const Lattice& lat, const std::vector<T>& f, Index p, int a) {
+AxisDerivative<T> axisDerivative(const Lattice& lat, const std::vector<T>& f, Index p, int a,
+                                 bool realisable = false) {
     AxisDerivative<T> d;
     const std::array<Index, 6>& nb = lat.neighbours[at(p)];
     const Index lo = nb[static_cast<std::size_t>(2 * a)];
@@ -63,7 +64,7 @@ AxisDerivative<T> axisDerivative(const Lattice& lat, const std::vector<T>& f, In
     d.first = (sign * Real(0.5)) * (Real(4) * (f1 - f0) - (f2 - f0));
     if constexpr (kSecond) {
         const Index q3 = step(lat, q2, slot);
-        if (q3 == kNoPoint) {
+        if (q3 == kNoPoint || realisable) {
             d.second = (f2 - f1) - (f1 - f0);
         } else {
             const T& f3 = f[at(q3)];
@@ -74,8 +75,27 @@ AxisDerivative<T> axisDerivative(const Lattice& lat, const std::vector<T>& f, In
     return d;
 }
 
-/// Mixed second derivative x_ab (a != b): mean of the available quadrant stencils.
-Vec3 mixedDerivative(const Lattice& lat, const std::vector<Vec3>& x, Index p, int a, int b) {
+/// d/du_along of the tangent field x_axis at p for BoundaryStencils::Realisable: central where
+/// both neighbours along `along` have x_axis, else the one-sided first difference towards the one
+/// that has it, else 0. (x_axis is "present" at a point with a neighbour along `axis`.)
+Vec3 tangentDifference(const Lattice& lat, const std::vector<Vec3>& x, Index p, int along, int axis) {
+    const AxisDerivative<Vec3> here = axisDerivative<Vec3, false>(lat, x, p, axis);
+    const std::array<Index, 6>& nb = lat.neighbours[at(p)];
+    const Index lo = nb[static_cast<std::size_t>(2 * along)], hi = nb[static_cast<std::size_t>(2 * along + 1)];
+    AxisDerivative<Vec3> dLo, dHi;
+    if (lo != kNoPoint) dLo = axisDerivative<Vec3, false>(lat, x, lo, axis);
+    if (hi != kNoPoint) dHi = axisDerivative<Vec3, false>(lat, x, hi, axis);
+    if (dLo.present && dHi.present) return Real(0.5) * (dHi.first - dLo.first);
+    if (!here.present) return Vec3::Zero();
+    if (dHi.present) return dHi.first - here.first;
+    if (dLo.present) return here.first - dLo.first;
+    return Vec3::Zero();
+}
+
+/// Mixed second derivative x_ab (a != b): the central cross stencil where it exists; elsewhere
+/// the mean of the available quadrant stencils (Accurate) or ½ (∂_b x_a + ∂_a x_b) by
+/// tangentDifference (Realisable).
+Vec3 mixedDerivative(const Lattice& lat, const std::vector<Vec3>& x, Index p, int a, int b, bool realisable) {
     const std::array<Index, 6>& nb = lat.neighbours[at(p)];
     const Index am = nb[static_cast<std::size_t>(2 * a)],
                 ap = nb[static_cast<std::size_t>(2 * a + 1)];
@@ -88,6 +108,7 @@ Vec3 mixedDerivative(const Lattice& lat, const std::vector<Vec3>& x, Index p, in
         bp != kNoPoint) {
         return Real(0.25) * ((x[at(pp)] - x[at(pm)]) - (x[at(mp)] - x[at(mm)]));
     }
+    if (realisable) return Real(0.5) * (tangentDifference(lat, x, p, b, a) + tangentDifference(lat, x, p, a, b));
     const Vec3& x0 = x[at(p)];
     Vec3 sum = Vec3::Zero();
     int count = 0;
@@ -216,7 +237,8 @@ bool invertMetric(const Mat3& g, Mat3& gInv) {
 }
 
 void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& positions,
-                           GeometricState& state) {
+                           GeometricState& state, BoundaryStencils stencils) {
+    const bool realisable = stencils == BoundaryStencils::Realisable;
     const Index n = lat.size();
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), n);
     const std::size_t sz = at(n);
@@ -235,14 +257,14 @@ void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& position
         std::array<bool, 3> present;
         Vec3 second[6];
         for (int a = 0; a < 3; ++a) {
-            const AxisDerivative<Vec3> d = axisDerivative<Vec3, true>(lat, positions, p, a);
+            const AxisDerivative<Vec3> d = axisDerivative<Vec3, true>(lat, positions, p, a, realisable);
             tangent[static_cast<std::size_t>(a)] = d.first;
             second[a] = d.second;
             present[static_cast<std::size_t>(a)] = d.present;
         }
-        second[3] = mixedDerivative(lat, positions, p, 0, 1);
-        second[4] = mixedDerivative(lat, positions, p, 0, 2);
-        second[5] = mixedDerivative(lat, positions, p, 1, 2);
+        second[3] = mixedDerivative(lat, positions, p, 0, 1, realisable);
+        second[4] = mixedDerivative(lat, positions, p, 0, 2, realisable);
+        second[5] = mixedDerivative(lat, positions, p, 1, 2, realisable);
         if (!(present[0] && present[1] && present[2])) {
             extrapolateFrame(lat, positions, p, tangent, present);
             completeFrame(tangent, present, h);

@@ -49,12 +49,27 @@ struct GeometricState {
     Index size() const { return static_cast<Index>(position.size()); }
 };
 
+/// The second-derivative stencils of boundary points (docs/math.md, "Finite differences on the
+/// lattice"; interior points use the central ones either way).
+enum class BoundaryStencils {
+    /// Second order where the points exist (x_aa by 2x − 5x[s] + 4x[2s] − x[3s]; x_ab by the mean
+    /// of the quadrant stencils): the geometry's, the diagnostics' and the renderer's default.
+    Accurate,
+    /// What the reconstruction's edge transports integrate back: x_aa by x − 2x[s] + x[2s] (with
+    /// the one-sided second-order x_a, the trapezoid rule of the edge generators then telescopes
+    /// exactly along the axis) and x_ab by ½ (∂_b x_a + ∂_a x_b) from first differences of the
+    /// tangent field. First order at the boundary; the dynamics' state (docs/math.md, "Boundary
+    /// stencils the reconstruction can realise"): with the Accurate ones, the reconstruction
+    /// realised some boundary changes backwards and a jelly's shape memory grew them.
+    Realisable,
+};
+
 /// Computes every field of `state` from positions x(u) (#P, world units, one per lattice point),
 /// in parallel; bit-identical for any thread count. `state` is resized to #P (its storage is
 /// reused when it already has that size). Never produces NaN or infinity: near-singular
 /// frames get a pseudo-inverse metric (invertMetric).
 void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& positions,
-                           GeometricState& state);
+                           GeometricState& state, BoundaryStencils stencils = BoundaryStencils::Accurate);
 
 /// Covariant derivative (eq 11) of the contravariant field f^b (#P Vec3s of coefficients, one
 /// per point): result[p](b, a) = f^b_{;a} = d f^b / du_a + sum_c f^c Gamma^b_ca. d/du_a uses the

@@ -621,3 +621,61 @@ TEST_CASE("geometric state: identical bytes for 1 and 2 threads", "[geom]") {
         REQUIRE(a.metricInv[p] == b.metricInv[p]);
     }
 }
+
+TEST_CASE("geometric state: the realisable boundary stencils are exact for affine maps and telescope along each axis",
+          "[geom]") {
+    // BoundaryStencils::Realisable (the dynamics' state): along every lattice edge p -> q = p + e_a
+    // the change of the tangent x_a is the trapezoid rule of x_aa, x_a(q) − x_a(p) = ½ (x_aa(p) +
+    // x_aa(q)), which is what the reconstruction's edge generators integrate (holonomy.hpp: the
+    // midpoint S_pq). Inside, the central stencils do this exactly; at the boundary the
+    // second-order x_aa (2x − 5x[s] + 4x[2s] − x[3s]) does not (docs/math.md, "Boundary stencils
+    // the reconstruction can realise").
+    const Lattice lat = awkwardLattice();
+    const std::vector<Vec3> rest = restPositions(lat);
+    std::mt19937_64 rng(777);
+    const Mat3 a = randomAffine(rng);
+    std::vector<Vec3> x(rest.size());
+    for (std::size_t p = 0; p < x.size(); ++p) x[p] = a * rest[p] + Vec3(0.3, -2, 1);
+    GeometricState st;
+    computeGeometricState(lat, x, st, BoundaryStencils::Realisable);
+    CHECK(maxAbsGamma(st) < 1e-12);
+    // A curved map (a bend and a swirl of a few voxels' wavelength).
+    for (std::size_t p = 0; p < x.size(); ++p) {
+        const Vec3 u = rest[p];
+        x[p] = u + Vec3(0.4 * std::sin(0.9 * u.y()), 0.3 * std::cos(0.7 * u.z() + 0.2 * u.x()), 0.25 * u.x() * u.y() / 10);
+    }
+    GeometricState realisable, accurate;
+    computeGeometricState(lat, x, realisable, BoundaryStencils::Realisable);
+    computeGeometricState(lat, x, accurate);
+    auto worstEdge = [&](const GeometricState& s) {
+        Real worst = 0;
+        for (Index p = 0; p < lat.size(); ++p)
+            for (int ax = 0; ax < 3; ++ax) {
+                const Index q = lat.neighbours[static_cast<std::size_t>(p)][static_cast<std::size_t>(2 * ax + 1)];
+                if (q == kNoPoint) continue;
+                const Vec3 change = s.tangent[ax][q] - s.tangent[ax][p];
+                const Vec3 trapezoid = Real(0.5) * (s.second[ax][p] + s.second[ax][q]);
+                worst = std::max(worst, (change - trapezoid).norm());
+            }
+        return worst;
+    };
+    const Real eRealisable = worstEdge(realisable), eAccurate = worstEdge(accurate);
+    INFO("largest |x_a(q) - x_a(p) - trapezoid of x_aa|: realisable " << eRealisable << ", accurate " << eAccurate);
+    CHECK(eRealisable < 1e-13);
+    CHECK(eAccurate > 1e-3);
+    // Interior points (all six neighbours and the cross stencils' diagonals) are the same either way.
+    Real interiorDiff = 0;
+    for (Index p = 0; p < lat.size(); ++p) {
+        bool interior = true;
+        for (int s = 0; s < 6 && interior; ++s) {
+            const Index q = lat.neighbours[static_cast<std::size_t>(p)][static_cast<std::size_t>(s)];
+            interior = q != kNoPoint;
+            for (int t = 0; t < 6 && interior; ++t)
+                if (t / 2 != s / 2) interior = lat.neighbours[static_cast<std::size_t>(q)][static_cast<std::size_t>(t)] != kNoPoint;
+        }
+        if (!interior) continue;
+        for (int c = 0; c < 3; ++c)
+            interiorDiff = std::max(interiorDiff, (realisable.christoffel[c][p] - accurate.christoffel[c][p]).cwiseAbs().maxCoeff());
+    }
+    CHECK(interiorDiff == 0);
+}
