@@ -91,7 +91,7 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mVolumeLambda = std::move(s.volumeLambda);
     mVolumeLambdaPrev = std::move(s.volumeLambdaPrev);
     // The geometric state is a function of the positions (the step ends by computing it so).
-    computeGeometricState(mLat, mX, mState);
+    computeGeometricState(mLat, mX, mState, BoundaryStencils::Realisable);
     mVolumeCache.builtFromPositions = std::move(s.volumeCachePositions);
     mVolumeCache.builtFromPinned = std::move(s.volumeCachePinned);
     if (mSet.projectVolume && mCells.size() > 0) {

@@ -284,7 +284,7 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
     if (eig.eigenvalues().minCoeff() < 1e-6 * h2) S0 += (h2 / 12) * Mat3::Identity();
     mS0inv = S0.inverse();
 
-    computeGeometricState(mLat, mX, mState);
+    computeGeometricState(mLat, mX, mState, BoundaryStencils::Realisable);
     for (auto& g : mDGamma) g.assign(at(n), Mat3::Zero());
     if (mSet.yieldStrain > 0) {
         // Plasticity: the rest connection starts at the lattice's (0, as the shape memory's);
@@ -527,7 +527,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
                                        mQ[2] * mLoad.w[2][at(p)];
                 });
                 GeometricState target;
-                computeGeometricState(mLat, displaced, target);
+                computeGeometricState(mLat, displaced, target, BoundaryStencils::Realisable);
                 mLoadGamma = std::move(target.christoffel);
                 mQTarget = mQ;
             }
