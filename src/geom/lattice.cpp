@@ -131,6 +131,35 @@ bool isCompleteCell(const Lattice& lat, const Vec3i& u) {
     return true;
 }
 
+bool inCompleteCell(const Lattice& lat, Index p) {
+    const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
+    for (int c = 0; c < 8; ++c)
+        if (isCompleteCell(lat, u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1))) return true;
+    return false;
+}
+
+Lattice withoutLoosePoints(const Lattice& lat, Index* removed) {
+    const Index n = lat.size();
+    std::vector<unsigned char> inCell(static_cast<std::size_t>(n), 0);
+    parallelFor(n, [&](Index p) { inCell[static_cast<std::size_t>(p)] = inCompleteCell(lat, p) ? 1 : 0; });
+    std::vector<unsigned char> componentHasCell(static_cast<std::size_t>(lat.components), 0);
+    for (Index p = 0; p < n; ++p)
+        if (inCell[static_cast<std::size_t>(p)]) componentHasCell[static_cast<std::size_t>(lat.component[static_cast<std::size_t>(p)])] = 1;
+    std::vector<unsigned char> mask(lat.pointOfCell.size(), 0);
+    Index dropped = 0;
+    for (Index p = 0; p < n; ++p) {
+        const std::size_t i = static_cast<std::size_t>(p);
+        const bool keep = inCell[i] || !componentHasCell[static_cast<std::size_t>(lat.component[i])];
+        if (keep)
+            mask[static_cast<std::size_t>(lat.linearIndex(lat.coords[i]))] = 1;
+        else
+            ++dropped;
+    }
+    if (removed) *removed = dropped;
+    if (dropped == 0) return lat;
+    return buildLattice(lat.originWorld, lat.spacing, lat.dims, mask);
+}
+
 std::vector<Index> boundaryPoints(const Lattice& lat) {
     std::vector<Index> out;
     for (Index p = 0; p < lat.size(); ++p)

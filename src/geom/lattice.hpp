@@ -51,6 +51,18 @@ bool isBoundaryPoint(const Lattice& lat, Index p);
 /// The boundary points (isBoundaryPoint), in increasing point order.
 std::vector<Index> boundaryPoints(const Lattice& lat);
 
+/// Whether point p is a corner of at least one complete cell.
+bool inCompleteCell(const Lattice& lat, Index p);
+
+/// The lattice without its loose points: points that are a corner of no complete cell, in a
+/// 6-connected component that has complete cells. Such a point (a voxel ball's pole tips, a
+/// one-voxel fin on a thick body) carries no mass and no cell volume, and its frame is a one-sided
+/// or extrapolated guess; in the dynamics it was free to collapse (docs/math.md, "Loose points
+/// leave the material lattice"). Components with no complete cell at all (a one-voxel-thin sheet
+/// or rod) are kept whole. Same grid, origin and spacing; the kept points keep their order.
+/// @param removed  optional out: how many points were dropped
+Lattice withoutLoosePoints(const Lattice& lat, Index* removed = nullptr);
+
 /// Whether the lattice cell with lowest corner u has all 8 corners material (a complete cell:
 /// the cells the volume is kept on).
 bool isCompleteCell(const Lattice& lat, const Vec3i& u);

@@ -213,3 +213,49 @@ TEST_CASE("lattice: empty mask and empty grid", "[geom]") {
     const Lattice none = buildLattice(Vec3::Zero(), 1, Vec3i(0, 3, 3), {});
     REQUIRE(none.size() == 0);
 }
+
+TEST_CASE("lattice: loose points (in no complete cell) leave; a sheet with no cell stays whole", "[geom]") {
+    // A 3x3x3 block with a one-voxel fin sticking out of its top face (two points up from its
+    // centre), a pole tip on its side, and, apart, a 4x4 one-voxel-thin sheet.
+    const Vec3i dims(12, 8, 5);
+    std::vector<unsigned char> m = boxMask(dims, {0, 0, 0}, {2, 2, 2});
+    auto set = [&](int i, int j, int k) { m[static_cast<std::size_t>(i + dims.x() * (j + dims.y() * k))] = 1; };
+    set(1, 3, 1);
+    set(1, 4, 1);  // the fin
+    set(3, 1, 1);  // the pole tip
+    for (int j = 0; j < 4; ++j)
+        for (int i = 7; i < 11; ++i) set(i, j, 2);  // the sheet
+    const Lattice lat = buildLattice(Vec3(0.5, -1, 2), 0.25, dims, m);
+    REQUIRE(lat.size() == 27 + 3 + 16);
+    REQUIRE(lat.components == 2);
+    for (Index p = 0; p < lat.size(); ++p) {
+        const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
+        const bool inBlock = (u.array() <= 2).all();
+        CHECK(inCompleteCell(lat, p) == inBlock);
+    }
+    Index removed = -1;
+    const Lattice kept = withoutLoosePoints(lat, &removed);
+    CHECK(removed == 3);
+    REQUIRE(kept.size() == 27 + 16);
+    CHECK(kept.components == 2);
+    CHECK(kept.spacing == lat.spacing);
+    CHECK(kept.originWorld == lat.originWorld);
+    CHECK(kept.dims == lat.dims);
+    // The kept points keep their order, coordinates and rest positions.
+    Index q = 0;
+    for (Index p = 0; p < lat.size(); ++p) {
+        const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
+        if (u == Vec3i(1, 3, 1) || u == Vec3i(1, 4, 1) || u == Vec3i(3, 1, 1)) {
+            CHECK(kept.pointAt(u) == kNoPoint);
+            continue;
+        }
+        CHECK(kept.coords[static_cast<std::size_t>(q)] == u);
+        CHECK(kept.restPosition(q) == lat.restPosition(p));
+        ++q;
+    }
+    // Nothing loose: the same lattice back.
+    Index none = -1;
+    const Lattice again = withoutLoosePoints(kept, &none);
+    CHECK(none == 0);
+    CHECK(again.coords == kept.coords);
+}
