@@ -30,7 +30,7 @@ void step(std::ostream& out, const BenchOptions& options) {
     std::vector<double> logN, logT;
     for (Real r : radii) {
         const Real h = 0.5 / r;  // a ball of radius 0.5 m
-        const Lattice lat = ballLattice(r, h);
+        const Lattice lat = withoutLoosePoints(ballLattice(r, h));  // as a scene's object (scene_build)
         DeformableBody body(lat, restPositions(lat), DynamicsSettings{});
         ForceField f;
         ForceTerm t;

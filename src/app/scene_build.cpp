@@ -65,6 +65,9 @@ BuiltObject buildObject(const SceneDesc& scene, int index) {
         throw InputError(scene.path, "objects[" + std::to_string(index) + "]",
                          "no voxel centre lies inside the mesh of \"" + desc.name +
                              "\" (is it open or flat, or the voxel size too large?)");
+    // The material lattice is the points of complete cells (docs/math.md, "Loose points leave the
+    // material lattice"); the mesh's vertices near a dropped voxel follow the nearest kept point.
+    obj.lattice = withoutLoosePoints(obj.lattice, &obj.loosePoints);
     computeGeometricState(obj.lattice, restPositions(obj.lattice), obj.state);
     obj.embedding = embedVertices(obj.lattice, obj.restMesh.vertices);
     return obj;
@@ -75,10 +78,10 @@ std::string describe(const BuiltObject& o) {
     const VoxeliseReport& v = o.voxelReport;
     std::snprintf(buf, sizeof buf,
                   "object '%s': %zu triangles%s, lattice %dx%dx%d with %lld material points "
-                  "(h = %.4g), %d component%s",
+                  "(h = %.4g; %lld loose voxels in no complete cell dropped), %d component%s",
                   o.name.c_str(), o.meshReport.triangles, o.meshReport.closed ? " (closed)" : " (open)",
-                  v.dims.x(), v.dims.y(), v.dims.z(), static_cast<long long>(v.points), v.spacing,
-                  v.components, v.components == 1 ? "" : "s");
+                  v.dims.x(), v.dims.y(), v.dims.z(), static_cast<long long>(o.lattice.size()), v.spacing,
+                  static_cast<long long>(o.loosePoints), o.lattice.components, o.lattice.components == 1 ? "" : "s");
     return buf;
 }
 

@@ -21,6 +21,7 @@ struct BuiltObject {
     MeshReport meshReport;
     Lattice lattice;
     VoxeliseReport voxelReport;
+    Index loosePoints = 0;      ///< voxels dropped from the lattice: in no complete cell (withoutLoosePoints)
     GeometricState state;
     MeshEmbedding embedding;
     Vec3 color;
