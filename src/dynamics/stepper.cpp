@@ -1122,6 +1122,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         mA = A1;
     } else {
         mC = cNew;
+        mAdot = (aNew - mA) / dt;  // SHAKE: the velocity of the step taken (docs/math.md, "The flex keeps its spin")
         mA = aNew;
     }
     parallelFor(n, [&](Index p) { mV[at(p)] = (xNew[at(p)] - mX[at(p)]) / dt; });
@@ -1135,7 +1136,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     std::array<std::vector<Mat3>, 3> gammaOld;
     const bool antiWindup = mSet.antiWindup && !mSet.realizedRate && report.contacts > 0;
     if (mSet.realizedRate || antiWindup) gammaOld = mState.christoffel;
-    computeGeometricState(mLat, mX, mState);
+    computeGeometricState(mLat, mX, mState, BoundaryStencils::Realisable);
     if (antiWindup) {
         // Anti-windup in contact: keep the realised fraction of δΓ at each point, between 0 (the
         // constraints refused it all, or turned it round) and 1 (it all happened). The direction
