@@ -29,13 +29,7 @@ std::vector<Real> pointMasses(const Lattice& lat, Real density, MassRule rule) {
     const Real cellMass = density * lat.spacing * lat.spacing * lat.spacing;
     std::vector<Real> m(static_cast<std::size_t>(lat.size()), cellMass);
     if (rule == MassRule::Voxel) return m;
-    parallelFor(lat.size(), [&](Index p) {
-        const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
-        int cells = 0;
-        for (int c = 0; c < 8; ++c)
-            cells += isCompleteCell(lat, u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)) ? 1 : 0;
-        m[static_cast<std::size_t>(p)] = cellMass * cells / 8;
-    });
+    parallelFor(lat.size(), [&](Index p) { m[static_cast<std::size_t>(p)] = cellMass * completeCellsAt(lat, p) / 8; });
     return m;
 }
 

@@ -79,13 +79,13 @@ AxisDerivative<T> axisDerivative(const Lattice& lat, const std::vector<T>& f, In
 /// both neighbours along `along` have x_axis, else the one-sided first difference towards the one
 /// that has it, else 0. (x_axis is "present" at a point with a neighbour along `axis`.)
 Vec3 tangentDifference(const Lattice& lat, const std::vector<Vec3>& x, Index p, int along, int axis) {
-    const AxisDerivative<Vec3> here = axisDerivative<Vec3, false>(lat, x, p, axis);
     const std::array<Index, 6>& nb = lat.neighbours[at(p)];
     const Index lo = nb[static_cast<std::size_t>(2 * along)], hi = nb[static_cast<std::size_t>(2 * along + 1)];
     AxisDerivative<Vec3> dLo, dHi;
     if (lo != kNoPoint) dLo = axisDerivative<Vec3, false>(lat, x, lo, axis);
     if (hi != kNoPoint) dHi = axisDerivative<Vec3, false>(lat, x, hi, axis);
     if (dLo.present && dHi.present) return Real(0.5) * (dHi.first - dLo.first);
+    const AxisDerivative<Vec3> here = axisDerivative<Vec3, false>(lat, x, p, axis);
     if (!here.present) return Vec3::Zero();
     if (dHi.present) return dHi.first - here.first;
     if (dLo.present) return here.first - dLo.first;

@@ -131,17 +131,17 @@ bool isCompleteCell(const Lattice& lat, const Vec3i& u) {
     return true;
 }
 
-bool inCompleteCell(const Lattice& lat, Index p) {
+int completeCellsAt(const Lattice& lat, Index p) {
     const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
-    for (int c = 0; c < 8; ++c)
-        if (isCompleteCell(lat, u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1))) return true;
-    return false;
+    int cells = 0;
+    for (int c = 0; c < 8; ++c) cells += isCompleteCell(lat, u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)) ? 1 : 0;
+    return cells;
 }
 
 Lattice withoutLoosePoints(const Lattice& lat, Index* removed) {
     const Index n = lat.size();
     std::vector<unsigned char> inCell(static_cast<std::size_t>(n), 0);
-    parallelFor(n, [&](Index p) { inCell[static_cast<std::size_t>(p)] = inCompleteCell(lat, p) ? 1 : 0; });
+    parallelFor(n, [&](Index p) { inCell[static_cast<std::size_t>(p)] = completeCellsAt(lat, p) > 0 ? 1 : 0; });
     std::vector<unsigned char> componentHasCell(static_cast<std::size_t>(lat.components), 0);
     for (Index p = 0; p < n; ++p)
         if (inCell[static_cast<std::size_t>(p)]) componentHasCell[static_cast<std::size_t>(lat.component[static_cast<std::size_t>(p)])] = 1;

@@ -51,8 +51,8 @@ bool isBoundaryPoint(const Lattice& lat, Index p);
 /// The boundary points (isBoundaryPoint), in increasing point order.
 std::vector<Index> boundaryPoints(const Lattice& lat);
 
-/// Whether point p is a corner of at least one complete cell.
-bool inCompleteCell(const Lattice& lat, Index p);
+/// How many complete cells point p is a corner of (0..8).
+int completeCellsAt(const Lattice& lat, Index p);
 
 /// The lattice without its loose points: points that are a corner of no complete cell, in a
 /// 6-connected component that has complete cells. Such a point (a voxel ball's pole tips, a

@@ -13,9 +13,8 @@ namespace dgv::test {
 /// The points within radius + 0.3 voxels of the centre of a (2 radius + 1)^3 grid with spacing h
 /// whose lowest corner is at `origin`; the ball's centre moved by `offset` voxels (< 0.5 each)
 /// makes a lopsided voxel ball, as voxelising a mesh does. Without its loose points (the material
-/// lattice a scene builds: withoutLoosePoints) unless `withLoose`.
-inline Lattice sphereLattice(int radius, Real h, const Vec3& origin, const Vec3& offset = Vec3::Zero(),
-                             bool withLoose = false) {
+/// lattice a scene builds: withoutLoosePoints).
+inline Lattice sphereLattice(int radius, Real h, const Vec3& origin, const Vec3& offset = Vec3::Zero()) {
     const int n = 2 * radius + 1;
     const Vec3i dims(n, n, n);
     std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
@@ -24,8 +23,7 @@ inline Lattice sphereLattice(int radius, Real h, const Vec3& origin, const Vec3&
             for (int i = 0; i < n; ++i)
                 if ((Vec3(i - radius, j - radius, k - radius) - offset).norm() <= radius + 0.3)
                     mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    const Lattice lat = buildLattice(origin, h, dims, mask);
-    return withLoose ? lat : withoutLoosePoints(lat);
+    return withoutLoosePoints(buildLattice(origin, h, dims, mask));
 }
 
 /// Every point of a dims grid with spacing h, lowest corner at `origin`.
