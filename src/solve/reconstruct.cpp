@@ -254,7 +254,9 @@ SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
 void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                            const std::array<std::vector<Mat3>, 3>& gamma0,
                            const std::array<std::vector<Mat3>, 3>& gamma1, const std::vector<Mat3>& frames,
-                           ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward) {
+                           ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward,
+                           int frameSweeps) {
+    DGV_CHECK(frameSweeps >= 0);
     const Index n = lat.size();
     for (std::size_t c = 0; c < 3; ++c) {
         DGV_CHECK_EQ(static_cast<Index>(gamma0[c].size()), n);
@@ -263,11 +265,17 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), n);
     DGV_CHECK_EQ(static_cast<Index>(tree.parent.size()), n);
     ConnectionChangeWorkspace& w = work;
+    constexpr Real kSweepEdgeBound = 1;  // |S|_1 beyond which an edge's transport is not averaged
     for (std::size_t b = 0; b < 3; ++b) {
         w.from0[b].resize(at(n));
         w.to0[b].resize(at(n));
         w.from1[b].resize(at(n));
         w.to1[b].resize(at(n));
+        w.steep[b].resize(at(n));
+        w.up0[b].resize(at(n));
+        w.down0[b].resize(at(n));
+        w.up1[b].resize(at(n));
+        w.down1[b].resize(at(n));
         forward[b].resize(at(n));
     }
     const std::size_t m = tree.order.size();
@@ -275,15 +283,23 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     w.tree1.resize(at(n));
     // Each edge p -> q = p + e_b once, on p: its step vectors, and its transport where it is a
     // tree edge, into the tree child (one writer per child).
+    // Each edge p -> q = p + e_b once, on p: its transport exp(S) both ways and its step
+    // vectors φ1(S) e_b and φ1(−S) e_b = exp(−S) φ1(S) e_b (edgeSteps' values), and the tree
+    // child's transport where it is a tree edge (one writer per child).
     auto edge = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q, Vec3& from, Vec3& to,
-                    std::vector<Mat3>& treeT) {
+                    Mat3& forwardT, Mat3& backwardT, std::vector<Mat3>& treeT) {
         Mat3 S;  // edgeGenerator(Γ(p), Γ(q), b, +1) without copying the connections
         for (std::size_t c = 0; c < 3; ++c)
             for (int a = 0; a < 3; ++a) S(Index(c), a) = Real(0.5) * (gamma[c][at(p)](a, b) + gamma[c][at(q)](a, b));
-        edgeSteps(S, b, from, to);
         Mat3 phi1;
-        if (tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1) expPhi1(S, treeT[at(q)], phi1);
-        if (tree.parent[at(p)] == q && tree.slot[at(p)] == 2 * b) expPhi1(-S, treeT[at(p)], phi1);
+        const bool steep = S.cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound;
+        expPhi1(S, forwardT, phi1);
+        backwardT = forwardT.inverse();
+        from = phi1.col(b);
+        to = backwardT * from;
+        if (tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1) treeT[at(q)] = forwardT;
+        if (tree.parent[at(p)] == q && tree.slot[at(p)] == 2 * b) treeT[at(p)] = backwardT;
+        return steep;
     };
     parallelFor(n, [&](Index p) {
         for (int b = 0; b < 3; ++b) {
@@ -294,10 +310,14 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                 w.to0[bb][at(p)].setZero();
                 w.from1[bb][at(p)].setZero();
                 w.to1[bb][at(p)].setZero();
+                w.steep[bb][at(p)] = 0;
                 continue;
             }
-            edge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.tree0);
-            edge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.tree1);
+            const bool steep0 =
+                edge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.up0[bb][at(p)], w.down0[bb][at(p)], w.tree0);
+            const bool steep1 =
+                edge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.up1[bb][at(p)], w.down1[bb][at(p)], w.tree1);
+            w.steep[bb][at(p)] = steep0 || steep1;
         }
     }, 256);
     // The frames along the tree (eq 57), both connections at once, in the tree's order (the
@@ -327,6 +347,47 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
         w.frames0[at(tree.order[at(i)])] = w.ordered0[at(i)];
         w.frames1[at(tree.order[at(i)])] = w.ordered1[at(i)];
     });
+    // Red-black Gauss-Seidel sweeps over each frame field: every point not a root takes the mean
+    // of its neighbours' frames carried across the edges, F(q) ← mean_p F(p) exp(S_pq), the
+    // least-squares frame of q given its neighbours (docs/math.md, "Frames that do not depend
+    // on the tree"). Along the tree alone the frames of a connection that is not exactly
+    // integrable (Γ + δΓ never is) depend on the path to the root; the realisation of δΓ then
+    // had complex eigenvalues, through which the shape memory's oscillator grew from round-off.
+    // Both fields get the same sweeps, so δΓ = 0 still asks for no step. A point on a steep
+    // edge (|S|_1 > kSweepEdgeBound in either connection: a sheet flattened to a few voxels,
+    // a fold beginning) keeps its tree frame: there exp(±S) magnifies a neighbour's frame many
+    // times, and the mean of such predictions ran a goo pancake's step to 1e4 voxels.
+    auto sweep = [&](const std::array<std::vector<Mat3>, 3>& up, const std::array<std::vector<Mat3>, 3>& down,
+                     std::vector<Mat3>& F, int colour) {
+        parallelFor(n, [&](Index q) {
+            const Vec3i& u = lat.coords[at(q)];
+            if (((u.x() + u.y() + u.z()) & 1) != colour) return;
+            if (tree.parent[at(q)] == kNoPoint) return;  // a root, or a point the tree misses
+            for (std::size_t b = 0; b < 3; ++b) {
+                const Index below = lat.neighbours[at(q)][2 * b];
+                if ((below != kNoPoint && w.steep[b][at(below)]) || w.steep[b][at(q)]) return;
+            }
+            Mat3 sum = Mat3::Zero();
+            int count = 0;
+            for (std::size_t b = 0; b < 3; ++b) {
+                const Index below = lat.neighbours[at(q)][2 * b], above = lat.neighbours[at(q)][2 * b + 1];
+                if (below != kNoPoint) {  // the edge below -> q, stored on below
+                    sum.noalias() += F[at(below)] * up[b][at(below)];
+                    ++count;
+                }
+                if (above != kNoPoint) {  // the edge q -> above, stored on q, crossed backwards
+                    sum.noalias() += F[at(above)] * down[b][at(q)];
+                    ++count;
+                }
+            }
+            F[at(q)] = sum / static_cast<Real>(count);
+        }, 1024);
+    };
+    for (int k = 0; k < frameSweeps; ++k)
+        for (int colour = 0; colour < 2; ++colour) {
+            sweep(w.up0, w.down0, w.frames0, colour);
+            sweep(w.up1, w.down1, w.frames1, colour);
+        }
     // D1 − D0 per edge (positionStep's arithmetic).
     parallelFor(n, [&](Index p) {
         for (int b = 0; b < 3; ++b) {

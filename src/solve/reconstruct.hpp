@@ -120,21 +120,26 @@ struct ConnectionChangeWorkspace {
     std::vector<Mat3> tree0, tree1;      ///< #P: frame transport of the tree edge into each point
     std::vector<Mat3> ordered0, ordered1;  ///< the tree edges' transports, then the frames, in the tree's order
     std::vector<Mat3> frames0, frames1;  ///< #P: the frames of each connection
+    std::array<std::vector<Mat3>, 3> up0, down0, up1, down1;  ///< every edge p -> p + e_b, on p: exp(±S)
+    std::array<std::vector<unsigned char>, 3> steep;  ///< every edge, on p: 1 where |S|_1 is past the sweeps' bound
 };
 
 /// The edge steps a connection change asks for (the dynamics' reconstruction, dynamics/stepper):
 /// with frames integrated along `tree` from `frames` at its roots, once with Γ0 and once with
-/// Γ1, forward[b][p] = D1 − D0 for every edge p -> p + e_b (zero where absent), D the
-/// positionStep of each connection. The same values, to round-off, as computeEdgeTransports,
-/// integrateFramesAlongTree (points the tree misses keep `frames`) and positionStep for each
-/// connection, in one parallel pass over the edges that computes the step vectors by
-/// edgeSteps and transport matrices only for the tree's edges, keeping 288 + 144 bytes a point
-/// (against 576 twice).
+/// Γ1, then `frameSweeps` red-black Gauss-Seidel sweeps of each frame field (every point but
+/// the roots takes the mean of its neighbours' frames carried across the edges: the tree's
+/// path dependence smoothed out; docs/math.md, "Frames that do not depend on the tree"),
+/// forward[b][p] = D1 − D0 for every edge p -> p + e_b (zero where absent), D the positionStep
+/// of each connection. With frameSweeps = 0 the same values, to round-off, as
+/// computeEdgeTransports, integrateFramesAlongTree (points the tree misses keep `frames`) and
+/// positionStep for each connection, in one parallel pass over the edges; the work arrays
+/// hold about 1.6 kB a point.
 /// @param frames   #P frames; those at the tree's roots start both integrations
 /// @param forward  out: 3 x #P
 void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                            const std::array<std::vector<Mat3>, 3>& gamma0,
                            const std::array<std::vector<Mat3>, 3>& gamma1, const std::vector<Mat3>& frames,
-                           ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward);
+                           ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward,
+                           int frameSweeps = 0);
 
 }  // namespace dgv
