@@ -38,6 +38,7 @@ DeformableBodyState DeformableBody::saveState() const {
     s.plasticFlex = mPlasticFlex;
     s.plasticGamma = mPlasticGamma;
     s.lastStep = mDtLast;
+    s.freeFlight = mFreeFlight;
     s.loadAmplitude = mQ;
     s.loadRate = mQdot;
     s.displacement = mDisplacement;
@@ -84,6 +85,7 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mPlasticFlex = s.plasticFlex;
     mPlasticGamma = std::move(s.plasticGamma);
     mDtLast = s.lastStep;
+    mFreeFlight = s.freeFlight;
     mQ = s.loadAmplitude;
     mQdot = s.loadRate;
     mDisplacement = std::move(s.displacement);

@@ -37,6 +37,7 @@ struct DeformableBodyState {
     Mat3 plasticFlex = Mat3::Identity();         ///< plasticity: the flex's rest stretch P
     std::array<std::vector<Mat3>, 3> plasticGamma;  ///< plasticity: Γ_p (#P each, or empty when off)
     Real lastStep = 0;                           ///< the last step's length, s (0: none yet); δΓ is per step of it
+    Real freeFlight = 0;                         ///< s since the body last touched a collider (or since its start)
     Vec3 loadAmplitude = Vec3::Zero();           ///< a pinned body's load modes: amplitudes q, m (load_modes.hpp)
     Vec3 loadRate = Vec3::Zero();                ///< ... and their rates q̇, m/s
     std::vector<Vec3> displacement;              ///< #P: the reconstruction's warm start

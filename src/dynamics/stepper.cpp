@@ -219,6 +219,8 @@ std::vector<std::string> DynamicsSettings::validate() const {
     positive(volumeTolerance, "volume_tolerance");
     positive(reconstructTolerance, "reconstruct_tolerance");
     positive(maxLoadStrain, "max_load_strain");
+    if (frameSweeps < 0) out.push_back("frame_sweeps: expected a count >= 0, got " + std::to_string(frameSweeps));
+    nonNegative(frameSweepsAfter, "frame_sweeps_after");
     return out;
 }
 
@@ -621,7 +623,11 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     parallelFor(n, [&](Index p) {
         rw.frames[at(p)] << mState.tangent[0][at(p)], mState.tangent[1][at(p)], mState.tangent[2][at(p)];
     });
-    connectionChangeSteps(mLat, rw.tree, mState.christoffel, gammaBar, rw.frames, rw.change, rw.forward);
+    // The frame sweeps run in free flight only (DynamicsSettings::frameSweeps): a pinned body,
+    // or one that touched a collider less than frameSweepsAfter ago, keeps the tree's frames.
+    const bool held = mAnyPinned || mFreeFlight < mSet.frameSweepsAfter;
+    connectionChangeSteps(mLat, rw.tree, mState.christoffel, gammaBar, rw.frames, rw.change, rw.forward,
+                          held ? 0 : mSet.frameSweeps);
     // Warm start: the last two displacements extrapolated linearly, 2 d_n − d_(n−1) (exact for a
     // displacement growing linearly, as from rest under a steady force; measured at r = 32 in a
     // vortex: 8 → 5 CG iterations against d_n alone).
@@ -1132,6 +1138,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     mTangentPrev = mState.tangent;
     mHavePrev = true;
     mDtLast = dt;
+    mFreeFlight = report.contacts > 0 ? Real(0) : mFreeFlight + dt;
     mX.swap(xNew);
     std::array<std::vector<Mat3>, 3> gammaOld;
     const bool antiWindup = mSet.antiWindup && !mSet.realizedRate && report.contacts > 0;

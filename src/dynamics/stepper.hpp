@@ -88,9 +88,8 @@ struct DynamicsSettings {
     TwistStretch twistStretch = TwistStretch::DampOnly;
     /// Turn δΓ by the frames' rotation over the step, R(−2θ) in eq 76's exp(−δt W) (true: the
     /// notes, eq 78), or leave its lattice components as they are (false, the default): Γ's
-    /// lattice components do not change under a rigid motion, and with shape memory the
-    /// rotation pumps the twist up (a spinning jelly at k = 1000: Σ|δΓ|² ×2,000 in 4 s;
-    /// docs/math.md, "Twist").
+    /// lattice components do not change under a rigid motion (docs/math.md, "Twist"; the
+    /// pumping once measured with the rotation was the tree's frames, see frameSweeps).
     bool twistRotation = false;
     Real maxDeltaGamma = 0.05;        ///< limiter: |δΓ| (Frobenius over the 18 components, per
                                       ///< lattice step) per point per step
@@ -123,6 +122,17 @@ struct DynamicsSettings {
     Real volumeTolerance = 1e-5;      ///< volume projection: max_c |V/V0 − 1| after each step
     bool projectVolume = true;
     Real reconstructTolerance = 1e-6; ///< relative residual of the displacement solve
+    /// Red-black Gauss-Seidel sweeps over the reconstruction's frames after the tree integration
+    /// (connectionChangeSteps; docs/math.md, "Frames that do not depend on the tree"), in free
+    /// flight: a pinned body keeps the tree's frames, and so does a body until it has been clear
+    /// of every collider for `frameSweepsAfter` seconds. Frames integrated along the spanning tree alone depend on the path, and a stiff
+    /// jelly grew its twist from round-off through them until it shook apart (8 voxels spinning,
+    /// k = 1000/s², ζ = 2/s: Σ|δΓ|² 2e-4 at frame 480; with 4 sweeps 2e-24). 0: the tree's
+    /// frames (for comparison).
+    int frameSweeps = 4;
+    /// Seconds clear of every collider before the frame sweeps run (a resting putty that lost its
+    /// contact for a substep and switched to swept frames was kicked up: 0.19 J).
+    Real frameSweepsAfter = 0.5;
     /// Problems by field name; empty when valid.
     std::vector<std::string> validate() const;
 };
@@ -354,6 +364,7 @@ private:
     Vec3 mCPred = Vec3::Zero(), mVcPred = Vec3::Zero();  ///< centre and its velocity after the kick
     Mat3 mAPred = Mat3::Identity();   ///< A after the step, in SL(3)
     Real mDtPred = 0;
+    Real mFreeFlight = 0;             ///< s since the body last touched a collider (frameSweeps)
     Real mDtLast = 0;                 ///< the last finished step's length (0: none yet)
     void rescaleStep(Real ratio);     ///< the per-step state for a step `ratio` times as long
     StepReport mPredReport;

@@ -127,6 +127,7 @@ void writeBody(Writer& w, const DeformableBodyState& s) {
     w.value(s.plasticFlex);
     for (const auto& g : s.plasticGamma) w.array(g);
     w.value(s.lastStep);
+    w.value(s.freeFlight);
     w.value(s.loadAmplitude);
     w.value(s.loadRate);
     w.array(s.displacement);
@@ -163,6 +164,8 @@ void readBody(Reader& r, DeformableBodyState& s) {
     for (auto& g : s.plasticGamma) r.array(g);
     s.lastStep = r.value<Real>();
     if (!(s.lastStep >= 0) || !std::isfinite(s.lastStep)) r.ok = false;
+    s.freeFlight = r.value<Real>();
+    if (!(s.freeFlight >= 0) || !std::isfinite(s.freeFlight)) r.ok = false;
     s.loadAmplitude = r.value<Vec3>();
     s.loadRate = r.value<Vec3>();
     if (!s.loadAmplitude.allFinite() || !s.loadRate.allFinite()) r.ok = false;

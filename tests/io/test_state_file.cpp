@@ -52,6 +52,7 @@ StateCheckpoint sample() {
     b.flexVelocity = Mat3::Constant(-2);
     b.plasticFlex << 1.25, 0.125, 0, 0, 0.8, 0, 0, 0, 1;
     b.lastStep = 1.0 / 96;
+    b.freeFlight = 0.3125;
     c.contactAges = {{}, {0, 1, 1 << 30, 7, 3}, {}};
     return c;
 }
@@ -108,6 +109,7 @@ TEST_CASE("state_file: a checkpoint round-trips bit for bit", "[io][checkpoint]"
     CHECK(a.plasticFlex == b.plasticFlex);
     for (std::size_t k = 0; k < 3; ++k) CHECK(sameBits(a.plasticGamma[k], b.plasticGamma[k]));
     CHECK(a.lastStep == b.lastStep);
+    CHECK(a.freeFlight == b.freeFlight);
     CHECK(r.contactAges == c.contactAges);
     // Writing what was read gives the same bytes.
     writeStateFile(dir.path() / "again.dgvstate", r);
