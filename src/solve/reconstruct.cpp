@@ -281,8 +281,6 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     const std::size_t m = tree.order.size();
     w.tree0.resize(at(n));
     w.tree1.resize(at(n));
-    // Each edge p -> q = p + e_b once, on p: its step vectors, and its transport where it is a
-    // tree edge, into the tree child (one writer per child).
     // Each edge p -> q = p + e_b once, on p: its transport exp(S) both ways and its step
     // vectors φ1(S) e_b and φ1(−S) e_b = exp(−S) φ1(S) e_b (edgeSteps' values), and the tree
     // child's transport where it is a tree edge (one writer per child).
@@ -354,9 +352,9 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     // integrable (Γ + δΓ never is) depend on the path to the root; the realisation of δΓ then
     // had complex eigenvalues, through which the shape memory's oscillator grew from round-off.
     // Both fields get the same sweeps, so δΓ = 0 still asks for no step. A point on a steep
-    // edge (|S|_1 > kSweepEdgeBound in either connection: a sheet flattened to a few voxels,
-    // a fold beginning) keeps its tree frame: there exp(±S) magnifies a neighbour's frame many
-    // times, and the mean of such predictions ran a goo pancake's step to 1e4 voxels.
+    // edge (|S|_1 > kSweepEdgeBound in either connection: a fold beginning) keeps its tree
+    // frame, a guard: there exp(±S) scales a neighbour's frame by up to e^|S|, and a mean of such
+    // predictions is no better a frame than the tree's (a smooth shape's Γ stays well under 1).
     auto sweep = [&](const std::array<std::vector<Mat3>, 3>& up, const std::array<std::vector<Mat3>, 3>& down,
                      std::vector<Mat3>& F, int colour) {
         parallelFor(n, [&](Index q) {
