@@ -266,38 +266,50 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     DGV_CHECK_EQ(static_cast<Index>(tree.parent.size()), n);
     ConnectionChangeWorkspace& w = work;
     constexpr Real kSweepEdgeBound = 1;  // |S|_1 beyond which an edge's transport is not averaged
+    const bool sweeping = frameSweeps > 0;
     for (std::size_t b = 0; b < 3; ++b) {
         w.from0[b].resize(at(n));
         w.to0[b].resize(at(n));
         w.from1[b].resize(at(n));
         w.to1[b].resize(at(n));
-        w.steep[b].resize(at(n));
-        w.up0[b].resize(at(n));
-        w.down0[b].resize(at(n));
-        w.up1[b].resize(at(n));
-        w.down1[b].resize(at(n));
+        if (sweeping) {  // every edge's transports, for the sweeps only
+            w.steep[b].resize(at(n));
+            w.up0[b].resize(at(n));
+            w.down0[b].resize(at(n));
+            w.up1[b].resize(at(n));
+            w.down1[b].resize(at(n));
+        }
         forward[b].resize(at(n));
     }
     const std::size_t m = tree.order.size();
     w.tree0.resize(at(n));
     w.tree1.resize(at(n));
-    // Each edge p -> q = p + e_b once, on p: its transport exp(S) both ways and its step
-    // vectors φ1(S) e_b and φ1(−S) e_b = exp(−S) φ1(S) e_b (edgeSteps' values), and the tree
-    // child's transport where it is a tree edge (one writer per child).
+    // Each edge p -> q = p + e_b once, on p: its step vectors φ1(±S) e_b, and the tree child's
+    // transport where it is a tree edge (one writer per child). With sweeps, every edge's
+    // transport both ways (up, down), and the steps from φ1(S): φ1(−S) e_b = exp(−S) φ1(S) e_b;
+    // without, the steps by edgeSteps and exp(±S) of the tree's edges only (a third of the work).
+    // Returns whether the edge is steep for the sweeps.
     auto edge = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q, Vec3& from, Vec3& to,
-                    Mat3& forwardT, Mat3& backwardT, std::vector<Mat3>& treeT) {
+                    Mat3* up, Mat3* down, std::vector<Mat3>& treeT) {
         Mat3 S;  // edgeGenerator(Γ(p), Γ(q), b, +1) without copying the connections
         for (std::size_t c = 0; c < 3; ++c)
             for (int a = 0; a < 3; ++a) S(Index(c), a) = Real(0.5) * (gamma[c][at(p)](a, b) + gamma[c][at(q)](a, b));
+        const bool intoQ = tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1;
+        const bool intoP = tree.parent[at(p)] == q && tree.slot[at(p)] == 2 * b;
         Mat3 phi1;
-        const bool steep = S.cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound;
-        expPhi1(S, forwardT, phi1);
-        backwardT = forwardT.inverse();
+        if (!up) {
+            edgeSteps(S, b, from, to);
+            if (intoQ) expPhi1(S, treeT[at(q)], phi1);
+            if (intoP) expPhi1(-S, treeT[at(p)], phi1);
+            return false;
+        }
+        expPhi1(S, *up, phi1);
+        *down = up->inverse();
         from = phi1.col(b);
-        to = backwardT * from;
-        if (tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1) treeT[at(q)] = forwardT;
-        if (tree.parent[at(p)] == q && tree.slot[at(p)] == 2 * b) treeT[at(p)] = backwardT;
-        return steep;
+        to = *down * from;
+        if (intoQ) treeT[at(q)] = *up;
+        if (intoP) treeT[at(p)] = *down;
+        return S.cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound;
     };
     parallelFor(n, [&](Index p) {
         for (int b = 0; b < 3; ++b) {
@@ -308,14 +320,14 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                 w.to0[bb][at(p)].setZero();
                 w.from1[bb][at(p)].setZero();
                 w.to1[bb][at(p)].setZero();
-                w.steep[bb][at(p)] = 0;
+                if (sweeping) w.steep[bb][at(p)] = 0;
                 continue;
             }
-            const bool steep0 =
-                edge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.up0[bb][at(p)], w.down0[bb][at(p)], w.tree0);
-            const bool steep1 =
-                edge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.up1[bb][at(p)], w.down1[bb][at(p)], w.tree1);
-            w.steep[bb][at(p)] = steep0 || steep1;
+            const bool steep0 = edge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)],
+                                     sweeping ? &w.up0[bb][at(p)] : nullptr, sweeping ? &w.down0[bb][at(p)] : nullptr, w.tree0);
+            const bool steep1 = edge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)],
+                                     sweeping ? &w.up1[bb][at(p)] : nullptr, sweeping ? &w.down1[bb][at(p)] : nullptr, w.tree1);
+            if (sweeping) w.steep[bb][at(p)] = steep0 || steep1;
         }
     }, 256);
     // The frames along the tree (eq 57), both connections at once, in the tree's order (the
