@@ -133,7 +133,7 @@ struct ConnectionChangeWorkspace {
 /// of each connection. With frameSweeps = 0 the same values, to round-off, as
 /// computeEdgeTransports, integrateFramesAlongTree (points the tree misses keep `frames`) and
 /// positionStep for each connection, in one parallel pass over the edges; the work arrays
-/// hold about 1.6 kB a point.
+/// hold 720 bytes a point, and with sweeps 1.6 kB (every edge's transports both ways).
 /// @param frames   #P frames; those at the tree's roots start both integrations
 /// @param forward  out: 3 x #P
 void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
