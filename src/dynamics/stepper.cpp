@@ -623,11 +623,11 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     parallelFor(n, [&](Index p) {
         rw.frames[at(p)] << mState.tangent[0][at(p)], mState.tangent[1][at(p)], mState.tangent[2][at(p)];
     });
-    // The frame sweeps run in free flight only (DynamicsSettings::frameSweeps): a pinned body,
-    // or one that touched a collider less than frameSweepsAfter ago, keeps the tree's frames.
-    const bool held = mAnyPinned || mFreeFlight < mSet.frameSweepsAfter;
+    // The frame sweeps run clear of colliders only (DynamicsSettings::frameSweeps): a body that
+    // touched one less than frameSweepsAfter ago keeps the tree's frames. Pinned or not.
+    const bool nearContact = mFreeFlight < mSet.frameSweepsAfter;
     connectionChangeSteps(mLat, rw.tree, mState.christoffel, gammaBar, rw.frames, rw.change, rw.forward,
-                          held ? 0 : mSet.frameSweeps);
+                          nearContact ? 0 : mSet.frameSweeps);
     // Warm start: the last two displacements extrapolated linearly, 2 d_n − d_(n−1) (exact for a
     // displacement growing linearly, as from rest under a steady force; measured at r = 32 in a
     // vortex: 8 → 5 CG iterations against d_n alone).

@@ -363,7 +363,11 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     // on the tree"). Along the tree alone the frames of a connection that is not exactly
     // integrable (Γ + δΓ never is) depend on the path to the root; the realisation of δΓ then
     // had complex eigenvalues, through which the shape memory's oscillator grew from round-off.
-    // Both fields get the same sweeps, so δΓ = 0 still asks for no step. A point on a steep
+    // Both fields get the same sweeps, so δΓ = 0 still asks for no step. The roots (a free
+    // body's centre, every pinned point) keep their frames: the pins clamp. Freed, with one root a
+    // component held for the gauge, a box pinned by its bottom face under gravity crept sideways
+    // at 0.1 mm/s (an affine shear keeps the base and has Γ = 0: the memory cannot see it), and a
+    // least-squares gauge over the pins still let it creep at a fifth of that. A point on a steep
     // edge (|S|_1 > kSweepEdgeBound in either connection: a fold beginning) keeps its tree
     // frame, a guard: there exp(±S) scales a neighbour's frame by up to e^|S|, and a mean of such
     // predictions is no better a frame than the tree's (a smooth shape's Γ stays well under 1).

@@ -11,6 +11,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -21,6 +23,8 @@ using namespace dgv::e2e;
 namespace fs = std::filesystem;
 
 namespace {
+
+inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
 
 /// A column 0.4 x 0.8 x 0.4 m standing on y = 0: its bottom face in group "base", the rest in
 /// group "sides" (closed, outward faces).
@@ -79,14 +83,24 @@ TEST_CASE("pin: a vertex group holds the material points that carry its vertices
         CHECK(std::abs(std::abs(x.z()) - 0.15) < 1e-12);
     }
     const std::vector<Vec3> rest = body.positions();
-    for (int f = 2; f <= 24; ++f) sim.advanceTo(f);
-    Real moved = 0;
-    for (Index p = 0; p < lat.size(); ++p) {
-        const std::size_t i = static_cast<std::size_t>(p);
-        if (body.pinned()[i]) CHECK(std::memcmp(&body.positions()[i], &rest[i], sizeof(Vec3)) == 0);
-        else moved = std::max(moved, (body.positions()[i] - rest[i]).norm());
+    auto moved = [&] {
+        Real most = 0;
+        for (Index p = 0; p < lat.size(); ++p) most = std::max(most, (body.positions()[at(p)] - rest[at(p)]).norm());
+        return most;
+    };
+    Real peak = 0;
+    for (int f = 2; f <= 24; ++f) {
+        sim.advanceTo(f);
+        peak = std::max(peak, moved());
     }
-    CHECK(moved > 0.01);  // the free points turned with the vortex
+    for (const Index p : pinned) CHECK(std::memcmp(&body.positions()[at(p)], &rest[at(p)], sizeof(Vec3)) == 0);
+    if (std::getenv("DGV_TEST_VERBOSE"))
+        std::printf("pin group: the free points moved up to %.4f m, %.4f m at frame 24\n", peak, moved());
+    // The free points turn with the vortex (measured 0.0077 m at frame 9) and the jelly settles
+    // into its twist (0.0050 m at frame 24). Before the frame sweeps ran on pinned bodies the
+    // tree's frames grew a mode from frame 18 on, ×1.3 a frame: 0.0188 m at frame 24.
+    CHECK(peak > 0.005);
+    CHECK(moved() < peak);
 }
 
 TEST_CASE("e2e: a pin's vertex group is read from the mesh file's groups; an unknown one exits 2 naming them",
