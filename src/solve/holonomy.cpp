@@ -7,6 +7,7 @@
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace dgv {
@@ -83,6 +84,39 @@ void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1) {
     }
     expS = e;
     phi1 = p;
+}
+
+void expPhi1Batch(const Mat3* S, Mat3* expS, Mat3* phi1, int count) {
+    DGV_CHECK(count >= 0 && count <= 4);
+    // expPhi1's steps for each matrix in turn within every step of the recursion: a matrix
+    // whose degree or squaring count is smaller skips the steps it does not take, so each
+    // result is expPhi1's to the bit.
+    std::array<Mat3, 4> X, p, e;
+    std::array<int, 4> squarings{}, degree{};
+    int mostDegree = 0, mostSquarings = 0;
+    for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l) {
+        const Real norm = S[l].cwiseAbs().colwise().sum().maxCoeff();
+        if (norm > Real(0.25)) squarings[l] = std::min(60, int(std::ceil(std::log2(norm / Real(0.25)))));
+        X[l] = std::ldexp(Real(1), -squarings[l]) * S[l];
+        degree[l] = phi1Degree(std::min(norm, Real(0.25)));
+        mostDegree = std::max(mostDegree, degree[l]);
+        mostSquarings = std::max(mostSquarings, squarings[l]);
+        p[l] = Mat3::Identity();
+    }
+    for (int j = mostDegree; j >= 1; --j)
+        for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l)
+            if (j <= degree[l]) p[l] = Mat3::Identity() + (X[l] * p[l]) / Real(j + 1);
+    for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l) e[l] = Mat3::Identity() + X[l] * p[l];
+    for (int i = 0; i < mostSquarings; ++i)
+        for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l)
+            if (i < squarings[l]) {
+                p[l] = Real(0.5) * p[l] * (e[l] + Mat3::Identity());
+                e[l] = e[l] * e[l];
+            }
+    for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l) {
+        expS[l] = e[l];
+        phi1[l] = p[l];
+    }
 }
 
 void edgeSteps(const Mat3& S, int axis, Vec3& from, Vec3& to) {

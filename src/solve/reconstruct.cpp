@@ -286,32 +286,59 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     w.tree1.resize(at(n));
     // Each edge p -> q = p + e_b once, on p: its step vectors φ1(±S) e_b, and the tree child's
     // transport where it is a tree edge (one writer per child). With sweeps, every edge's
-    // transport both ways (up, down), and the steps from φ1(S): φ1(−S) e_b = exp(−S) φ1(S) e_b;
-    // without, the steps by edgeSteps and exp(±S) of the tree's edges only (a third of the work).
-    // Returns whether the edge is steep for the sweeps.
-    auto edge = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q, Vec3& from, Vec3& to,
-                    Mat3* up, Mat3* down, std::vector<Mat3>& treeT) {
+    // transport both ways (up, down), and the steps from φ1(S): φ1(−S) e_b = exp(−S) φ1(S) e_b,
+    // the three edges of a point and connection exponentiated together (expPhi1Batch, the same
+    // bits); without, the steps by edgeSteps and exp(±S) of the tree's edges only (a third of
+    // the work).
+    auto generator = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q) {
         Mat3 S;  // edgeGenerator(Γ(p), Γ(q), b, +1) without copying the connections
         for (std::size_t c = 0; c < 3; ++c)
             for (int a = 0; a < 3; ++a) S(Index(c), a) = Real(0.5) * (gamma[c][at(p)](a, b) + gamma[c][at(q)](a, b));
-        const bool intoQ = tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1;
-        const bool intoP = tree.parent[at(p)] == q && tree.slot[at(p)] == 2 * b;
+        return S;
+    };
+    auto intoQ = [&](Index p, int b, Index q) { return tree.parent[at(q)] == p && tree.slot[at(q)] == 2 * b + 1; };
+    auto intoP = [&](Index p, int b, Index q) { return tree.parent[at(p)] == q && tree.slot[at(p)] == 2 * b; };
+    auto treeEdge = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q, Vec3& from, Vec3& to,
+                        std::vector<Mat3>& treeT) {
+        const Mat3 S = generator(gamma, p, b, q);
         Mat3 phi1;
-        if (!up) {
-            edgeSteps(S, b, from, to);
-            if (intoQ) expPhi1(S, treeT[at(q)], phi1);
-            if (intoP) expPhi1(-S, treeT[at(p)], phi1);
-            return false;
+        edgeSteps(S, b, from, to);
+        if (intoQ(p, b, q)) expPhi1(S, treeT[at(q)], phi1);
+        if (intoP(p, b, q)) expPhi1(-S, treeT[at(p)], phi1);
+    };
+    // One connection's edges out of p, swept form; returns, per axis, whether the edge is steep.
+    auto sweptEdges = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, std::array<std::vector<Vec3>, 3>& from,
+                          std::array<std::vector<Vec3>, 3>& to, std::array<std::vector<Mat3>, 3>& up,
+                          std::array<std::vector<Mat3>, 3>& down, std::vector<Mat3>& treeT, std::array<bool, 3>& steep) {
+        std::array<Mat3, 3> S, E, phi1;
+        std::array<int, 3> axis{};
+        int count = 0;
+        for (int b = 0; b < 3; ++b) {
+            const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
+            if (q == kNoPoint) continue;
+            S[at(count)] = generator(gamma, p, b, q);
+            axis[at(count++)] = b;
         }
-        expPhi1(S, *up, phi1);
-        *down = up->inverse();
-        from = phi1.col(b);
-        to = *down * from;
-        if (intoQ) treeT[at(q)] = *up;
-        if (intoP) treeT[at(p)] = *down;
-        return S.cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound;
+        expPhi1Batch(S.data(), E.data(), phi1.data(), count);
+        for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l) {
+            const int b = axis[l];
+            const std::size_t bb = at(b);
+            const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
+            up[bb][at(p)] = E[l];
+            down[bb][at(p)] = E[l].inverse();
+            from[bb][at(p)] = phi1[l].col(b);
+            to[bb][at(p)] = down[bb][at(p)] * from[bb][at(p)];
+            if (intoQ(p, b, q)) treeT[at(q)] = up[bb][at(p)];
+            if (intoP(p, b, q)) treeT[at(p)] = down[bb][at(p)];
+            steep[bb] = steep[bb] || S[l].cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound;
+        }
     };
     parallelFor(n, [&](Index p) {
+        std::array<bool, 3> steep{};
+        if (sweeping) {
+            sweptEdges(gamma0, p, w.from0, w.to0, w.up0, w.down0, w.tree0, steep);
+            sweptEdges(gamma1, p, w.from1, w.to1, w.up1, w.down1, w.tree1, steep);
+        }
         for (int b = 0; b < 3; ++b) {
             const std::size_t bb = at(b);
             const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
@@ -323,11 +350,12 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                 if (sweeping) w.steep[bb][at(p)] = 0;
                 continue;
             }
-            const bool steep0 = edge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)],
-                                     sweeping ? &w.up0[bb][at(p)] : nullptr, sweeping ? &w.down0[bb][at(p)] : nullptr, w.tree0);
-            const bool steep1 = edge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)],
-                                     sweeping ? &w.up1[bb][at(p)] : nullptr, sweeping ? &w.down1[bb][at(p)] : nullptr, w.tree1);
-            if (sweeping) w.steep[bb][at(p)] = steep0 || steep1;
+            if (sweeping) {
+                w.steep[bb][at(p)] = steep[bb];
+                continue;
+            }
+            treeEdge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.tree0);
+            treeEdge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.tree1);
         }
     }, 256);
     // The frames along the tree (eq 57), both connections at once, in the tree's order (the

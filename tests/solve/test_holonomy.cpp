@@ -9,10 +9,14 @@
 #include <Eigen/LU>
 #include <unsupported/Eigen/MatrixFunctions>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <initializer_list>
 #include <random>
+#include <vector>
 
 using namespace dgv;
 using namespace dgv::test;
@@ -256,4 +260,31 @@ TEST_CASE("holonomy: edgeSteps gives the step vectors of the edge transport", "[
             REQUIRE((to - phiMinus.col(axis)).norm() < 4e-16 * phiMinus.norm());
         }
     });
+}
+
+TEST_CASE("holonomy: expPhi1Batch is expPhi1 to the bit, whatever its neighbours in the batch", "[solve]") {
+    // Batches mixing scales, so that their members take different Taylor degrees and different
+    // numbers of squarings (the reconstruction's result must not depend on which edges share
+    // a batch: δΓ = 0 asks for exactly no step only if both connections' edges match bit for bit).
+    std::vector<Mat3> all;
+    forRandomGenerators(41, {1e-8, 1e-3, 0.02, 0.1, 0.3, 1.0, 4.0}, [&](const Mat3& s, Real) { all.push_back(s); });
+    std::mt19937 rng(7);
+    std::shuffle(all.begin(), all.end(), rng);
+    std::size_t next = 0;
+    int batches = 0;
+    while (next < all.size()) {
+        const int count = std::min(static_cast<int>(all.size() - next), 1 + batches % 4);
+        std::array<Mat3, 4> e, phi;
+        expPhi1Batch(&all[next], e.data(), phi.data(), count);
+        for (int l = 0; l < count; ++l) {
+            Mat3 e1, phi1;
+            expPhi1(all[next + static_cast<std::size_t>(l)], e1, phi1);
+            REQUIRE(std::memcmp(e1.data(), e[static_cast<std::size_t>(l)].data(), sizeof(Mat3)) == 0);
+            REQUIRE(std::memcmp(phi1.data(), phi[static_cast<std::size_t>(l)].data(), sizeof(Mat3)) == 0);
+        }
+        next += static_cast<std::size_t>(count);
+        ++batches;
+    }
+    CHECK(batches > 50);
+    expPhi1Batch(nullptr, nullptr, nullptr, 0);  // an empty batch does nothing
 }
