@@ -71,8 +71,15 @@ TEST_CASE("e2e: ring_drop's putty blob runs 240 frames within the volume goals a
     REQUIRE(rows.size() == 240);
     const Figures f = figuresOf(rows);
     checkVolumeGoals(f);  // measured: max cell error 2.0e-6, drift 7.7e-8
-    CHECK(rows.back().at("kinetic_energy") < 1e-3);  // at rest under the ring (measured 6.7e-5 J)
-    CHECK(rows.back().at("contacts") > 0);           // on the ground
+    // At rest under the ring over the last two seconds, not at one frame: the resting putty
+    // jitters (docs/math.md, "What the step does not do yet"), 1.7e-4 to 1e-2 J over frames
+    // 193-240, so the last frame alone passed or failed by chance.
+    std::vector<double> resting;
+    for (std::size_t i = rows.size() - 48; i < rows.size(); ++i) resting.push_back(rows[i].at("kinetic_energy"));
+    std::sort(resting.begin(), resting.end());
+    CHECK(resting[24] < 1e-3);    // the median (measured 4.8e-4 J; 478 J at frame 13 as it fell)
+    CHECK(resting.back() < 0.05);  // no kick (measured 1.0e-2 J; a switch to swept frames in contact once gave 0.19 J)
+    CHECK(rows.back().at("contacts") > 0);  // on the ground
 }
 
 TEST_CASE("e2e: jelly_cantilever sags under gravity, wobbles and comes to rest within the volume goals",
