@@ -35,6 +35,23 @@ Lattice ballLattice(int radius, Real h, const Vec3& centre) {
 
 using test::boxLattice;
 
+/// The positions the step predicts from rest when asked, as δΓ, the connection change of moving
+/// point p of the rest positions x0 (connection g0) by eps along axis a (the realisation map's
+/// column; body restored to `start` first).
+const std::vector<Vec3>& realisedColumn(DeformableBody& body, const DeformableBodyState& start, const Lattice& lat,
+                                        const std::vector<Vec3>& x0, const GeometricState& g0, Index p, int a, Real eps) {
+    std::vector<Vec3> x = x0;
+    x[static_cast<std::size_t>(p)][a] += eps;
+    GeometricState g;
+    computeGeometricState(lat, x, g, BoundaryStencils::Realisable);
+    DeformableBodyState s = start;
+    for (std::size_t c = 0; c < 3; ++c)
+        for (std::size_t q = 0; q < static_cast<std::size_t>(lat.size()); ++q) s.deltaGamma[c][q] = g.christoffel[c][q] - g0.christoffel[c][q];
+    body.restoreState(s);
+    REQUIRE(body.predict(ForceField(), 1, 1.0 / 96).fault.empty());
+    return body.predictedPositions();
+}
+
 ForceField vortexField(Real strength, const Vec3& centre, Real radius) {
     ForceField f;
     f.add(test::vortexTerm(strength, centre, radius));
@@ -408,19 +425,9 @@ TEST_CASE("stepper: the reconstruction realises a displacement's connection chan
     const int dim = static_cast<int>(3 * n);
     Eigen::MatrixXd T(dim, dim);
     const Real eps = 1e-7 * lat.spacing;
-    const ForceField none;
     for (Index p = 0; p < n; ++p)
         for (int a = 0; a < 3; ++a) {
-            std::vector<Vec3> x = x0;
-            x[static_cast<std::size_t>(p)][a] += eps;
-            GeometricState g;
-            computeGeometricState(lat, x, g, BoundaryStencils::Realisable);
-            DeformableBodyState s = start;
-            for (std::size_t c = 0; c < 3; ++c)
-                for (std::size_t q = 0; q < static_cast<std::size_t>(n); ++q) s.deltaGamma[c][q] = g.christoffel[c][q] - g0.christoffel[c][q];
-            body.restoreState(s);
-            REQUIRE(body.predict(none, 1, 1.0 / 96).fault.empty());
-            const std::vector<Vec3>& moved = body.predictedPositions();
+            const std::vector<Vec3>& moved = realisedColumn(body, start, lat, x0, g0, p, a, eps);
             for (Index q = 0; q < n; ++q)
                 for (int b = 0; b < 3; ++b)
                     T(static_cast<int>(3 * q + b), static_cast<int>(3 * p + a)) =
@@ -481,20 +488,12 @@ TEST_CASE("stepper: the frame sweeps let a pinned column's reconstruction realis
         Eigen::MatrixXd T(dim, dim);
         const Real eps = 1e-7 * lat.spacing;
         for (int j = 0; j < dim; ++j) {
-            const std::size_t p = static_cast<std::size_t>(freeDofs[static_cast<std::size_t>(j)] / 3);
-            std::vector<Vec3> x = x0;
-            x[p][freeDofs[static_cast<std::size_t>(j)] % 3] += eps;
-            GeometricState g;
-            computeGeometricState(lat, x, g, BoundaryStencils::Realisable);
-            DeformableBodyState s = start;
-            for (std::size_t c = 0; c < 3; ++c)
-                for (std::size_t q = 0; q < static_cast<std::size_t>(n); ++q) s.deltaGamma[c][q] = g.christoffel[c][q] - g0.christoffel[c][q];
-            body.restoreState(s);
-            REQUIRE(body.predict(ForceField(), 1, 1.0 / 96).fault.empty());
+            const int dof = freeDofs[static_cast<std::size_t>(j)];
+            const std::vector<Vec3>& moved = realisedColumn(body, start, lat, x0, g0, dof / 3, dof % 3, eps);
             for (int i = 0; i < dim; ++i) {
                 const std::size_t q = static_cast<std::size_t>(freeDofs[static_cast<std::size_t>(i)] / 3);
                 const int b = freeDofs[static_cast<std::size_t>(i)] % 3;
-                T(i, j) = (body.predictedPositions()[q][b] - x0[q][b]) / eps;
+                T(i, j) = (moved[q][b] - x0[q][b]) / eps;
             }
         }
         Figures f;
