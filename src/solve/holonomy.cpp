@@ -65,32 +65,14 @@ int phi1Degree(Real x) {
 
 }  // namespace
 
-void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1) {
-    // Scale S by 2^-k until its 1-norm is <= 1/4, where a Taylor polynomial of phi1 of degree
-    // <= 13 is exact to round-off; exp(X) = 1 + X phi1(X) exactly; then square back up
-    // with exp(2X) = exp(X)^2 and phi1(2X) = phi1(X) (exp(X) + 1) / 2 (all commute).
-    const Real norm = S.cwiseAbs().colwise().sum().maxCoeff();
-    int k = 0;
-    if (norm > Real(0.25)) k = std::min(60, int(std::ceil(std::log2(norm / Real(0.25)))));
-    const Mat3 X = std::ldexp(Real(1), -k) * S;
-    const int degree = phi1Degree(std::min(norm, Real(0.25)));
-    // Horner: phi1 = sum_{j=0}^{degree} X^j / (j+1)!
-    Mat3 p = Mat3::Identity();
-    for (int j = degree; j >= 1; --j) p = Mat3::Identity() + (X * p) / Real(j + 1);
-    Mat3 e = Mat3::Identity() + X * p;
-    for (int i = 0; i < k; ++i) {
-        p = Real(0.5) * p * (e + Mat3::Identity());
-        e = e * e;
-    }
-    expS = e;
-    phi1 = p;
-}
-
 void expPhi1Batch(const Mat3* S, Mat3* expS, Mat3* phi1, int count) {
     DGV_CHECK(count >= 0 && count <= 4);
-    // expPhi1's steps for each matrix in turn within every step of the recursion: a matrix
-    // whose degree or squaring count is smaller skips the steps it does not take, so each
-    // result is expPhi1's to the bit.
+    // Scale S by 2^-k until its 1-norm is <= 1/4, where a Taylor polynomial of phi1 of degree
+    // <= 13 is exact to round-off; exp(X) = 1 + X phi1(X) exactly; then square back up
+    // with exp(2X) = exp(X)^2 and phi1(2X) = phi1(X) (exp(X) + 1) / 2 (all commute). Each step
+    // of the recursion is taken for every matrix in turn (independent products overlap); a
+    // matrix whose degree or squaring count is smaller skips the steps it does not take, so
+    // each result is the same bits whatever shares its batch.
     std::array<Mat3, 4> X, p, e;
     std::array<int, 4> squarings{}, degree{};
     int mostDegree = 0, mostSquarings = 0;
@@ -103,6 +85,7 @@ void expPhi1Batch(const Mat3* S, Mat3* expS, Mat3* phi1, int count) {
         mostSquarings = std::max(mostSquarings, squarings[l]);
         p[l] = Mat3::Identity();
     }
+    // Horner: phi1 = sum_{j=0}^{degree} X^j / (j+1)!
     for (int j = mostDegree; j >= 1; --j)
         for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l)
             if (j <= degree[l]) p[l] = Mat3::Identity() + (X[l] * p[l]) / Real(j + 1);
@@ -118,6 +101,8 @@ void expPhi1Batch(const Mat3* S, Mat3* expS, Mat3* phi1, int count) {
         phi1[l] = p[l];
     }
 }
+
+void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1) { expPhi1Batch(&S, &expS, &phi1, 1); }
 
 void edgeSteps(const Mat3& S, int axis, Vec3& from, Vec3& to) {
     const Real norm = S.cwiseAbs().colwise().sum().maxCoeff();

@@ -43,7 +43,7 @@ Mat3 edgeGenerator(const PointConnection& gammaP, const PointConnection& gammaQ,
 /// Agrees with Eigen's Padé exponential to ~1e-15 relative (tested); ~10x faster.
 void expPhi1(const Mat3& S, Mat3& expS, Mat3& phi1);
 
-/// expPhi1 of `count` (<= 4) generators at once, bit-identical to expPhi1 on each: the same
+/// expPhi1 of `count` (<= 4) generators at once, each result the same bits as alone: the same
 /// arithmetic per matrix, interleaved so that the independent products overlap (a Horner step
 /// waits on the one before it; measured about 1.3-1.5x faster for three at a time).
 void expPhi1Batch(const Mat3* S, Mat3* expS, Mat3* phi1, int count);

@@ -306,10 +306,10 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
         if (intoQ(p, b, q)) expPhi1(S, treeT[at(q)], phi1);
         if (intoP(p, b, q)) expPhi1(-S, treeT[at(p)], phi1);
     };
-    // One connection's edges out of p, swept form; returns, per axis, whether the edge is steep.
+    // One connection's edges out of p, swept form; marks the steep ones in w.steep.
     auto sweptEdges = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, std::array<std::vector<Vec3>, 3>& from,
                           std::array<std::vector<Vec3>, 3>& to, std::array<std::vector<Mat3>, 3>& up,
-                          std::array<std::vector<Mat3>, 3>& down, std::vector<Mat3>& treeT, std::array<bool, 3>& steep) {
+                          std::array<std::vector<Mat3>, 3>& down, std::vector<Mat3>& treeT) {
         std::array<Mat3, 3> S, E, phi1;
         std::array<int, 3> axis{};
         int count = 0;
@@ -330,14 +330,14 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
             to[bb][at(p)] = down[bb][at(p)] * from[bb][at(p)];
             if (intoQ(p, b, q)) treeT[at(q)] = up[bb][at(p)];
             if (intoP(p, b, q)) treeT[at(p)] = down[bb][at(p)];
-            steep[bb] = steep[bb] || S[l].cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound;
+            if (S[l].cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound) w.steep[bb][at(p)] = 1;
         }
     };
     parallelFor(n, [&](Index p) {
-        std::array<bool, 3> steep{};
         if (sweeping) {
-            sweptEdges(gamma0, p, w.from0, w.to0, w.up0, w.down0, w.tree0, steep);
-            sweptEdges(gamma1, p, w.from1, w.to1, w.up1, w.down1, w.tree1, steep);
+            for (auto& steep : w.steep) steep[at(p)] = 0;
+            sweptEdges(gamma0, p, w.from0, w.to0, w.up0, w.down0, w.tree0);
+            sweptEdges(gamma1, p, w.from1, w.to1, w.up1, w.down1, w.tree1);
         }
         for (int b = 0; b < 3; ++b) {
             const std::size_t bb = at(b);
@@ -347,15 +347,10 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                 w.to0[bb][at(p)].setZero();
                 w.from1[bb][at(p)].setZero();
                 w.to1[bb][at(p)].setZero();
-                if (sweeping) w.steep[bb][at(p)] = 0;
-                continue;
+            } else if (!sweeping) {
+                treeEdge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.tree0);
+                treeEdge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.tree1);
             }
-            if (sweeping) {
-                w.steep[bb][at(p)] = steep[bb];
-                continue;
-            }
-            treeEdge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.tree0);
-            treeEdge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.tree1);
         }
     }, 256);
     // The frames along the tree (eq 57), both connections at once, in the tree's order (the
