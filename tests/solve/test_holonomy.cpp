@@ -262,7 +262,7 @@ TEST_CASE("holonomy: edgeSteps gives the step vectors of the edge transport", "[
     });
 }
 
-TEST_CASE("holonomy: expPhi1Batch is expPhi1 to the bit, whatever its neighbours in the batch", "[solve]") {
+TEST_CASE("holonomy: expPhi1Batch gives each generator the bits it gets alone, whatever shares its batch", "[solve]") {
     // Batches mixing scales, so that their members take different Taylor degrees and different
     // numbers of squarings (the reconstruction's result must not depend on which edges share
     // a batch: δΓ = 0 asks for exactly no step only if both connections' edges match bit for bit).
