@@ -67,6 +67,9 @@ void step(std::ostream& out, const BenchOptions& options) {
         out << tag << "_body_flex: " << best.bodyFlexSeconds << " s\n";
         out << tag << "_twist: " << best.twistSeconds << " s\n";
         out << tag << "_reconstruct: " << best.reconstructSeconds << " s (" << best.reconstructIterations << " CG iterations)\n";
+        out << tag << "_reconstruct_edges: " << best.reconstructEdgeSeconds << " s (both connections' edge transports)\n";
+        out << tag << "_reconstruct_frames: " << best.reconstructFrameSeconds << " s (along the tree, then the sweeps)\n";
+        out << tag << "_reconstruct_solve: " << best.reconstructSolveSeconds << " s (least squares)\n";
         out << tag << "_collide: " << best.collideSeconds << " s\n";
         out << tag << "_volume: " << best.volumeSeconds << " s (" << best.volumeIterations << " Gauss-Newton iterations)\n";
         out << tag << "_state: " << best.stateSeconds << " s\n";

@@ -637,7 +637,11 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         mDisplacementPrev[at(p)] = last;
     });
     for (Index p : mSolverFixed) mDisplacement[at(p)].setZero();
+    const auto tSolve = Clock::now();
     const SolveReport rec = mSolver->solveSteps(mLat, rw.forward, mDisplacement, mSet.reconstructTolerance, 200);
+    report.reconstructSolveSeconds = since(tSolve);
+    report.reconstructEdgeSeconds = rw.change.edgeSeconds;
+    report.reconstructFrameSeconds = rw.change.treeSeconds + rw.change.sweepSeconds;
     report.reconstructIterations = rec.iterations;
     const Real maxStep = parallelReduce(
         n, Real(0), [&](Real& acc, Index p) { acc = std::max(acc, mDisplacement[at(p)].norm()); },

@@ -221,6 +221,9 @@ struct StepReport {
     // wall-clock seconds of each stage
     double forcesSeconds = 0, bodyFlexSeconds = 0, twistSeconds = 0, reconstructSeconds = 0,
            collideSeconds = 0, volumeSeconds = 0, stateSeconds = 0, totalSeconds = 0;
+    // parts of reconstructSeconds: the edge transports of both connections, the frames along the
+    // tree and the sweeps, and the least-squares solve (solve/reconstruct, connectionChangeSteps)
+    double reconstructEdgeSeconds = 0, reconstructFrameSeconds = 0, reconstructSolveSeconds = 0;
 };
 
 /// One deformable body and its dynamic state.

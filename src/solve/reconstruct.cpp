@@ -265,6 +265,13 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), n);
     DGV_CHECK_EQ(static_cast<Index>(tree.parent.size()), n);
     ConnectionChangeWorkspace& w = work;
+    auto clock = std::chrono::steady_clock::now();
+    auto lap = [&clock] {  // seconds since the last lap
+        const auto now = std::chrono::steady_clock::now();
+        const double s = std::chrono::duration<double>(now - clock).count();
+        clock = now;
+        return s;
+    };
     constexpr Real kSweepEdgeBound = 1;  // |S|_1 beyond which an edge's transport is not averaged
     const bool sweeping = frameSweeps > 0;
     for (std::size_t b = 0; b < 3; ++b) {
@@ -286,10 +293,9 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     w.tree1.resize(at(n));
     // Each edge p -> q = p + e_b once, on p: its step vectors φ1(±S) e_b, and the tree child's
     // transport where it is a tree edge (one writer per child). With sweeps, every edge's
-    // transport both ways (up, down), and the steps from φ1(S): φ1(−S) e_b = exp(−S) φ1(S) e_b,
-    // the three edges of a point and connection exponentiated together (expPhi1Batch, the same
-    // bits); without, the steps by edgeSteps and exp(±S) of the tree's edges only (a third of
-    // the work).
+    // transport both ways (up, down), and the steps from φ1(S): φ1(−S) e_b = exp(−S) φ1(S) e_b;
+    // without, the steps by edgeSteps and exp(±S) of the tree's edges only (a third of the
+    // work). Either way one connection and one axis a pass (below).
     auto generator = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, int b, Index q) {
         Mat3 S;  // edgeGenerator(Γ(p), Γ(q), b, +1) without copying the connections
         for (std::size_t c = 0; c < 3; ++c)
@@ -306,53 +312,83 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
         if (intoQ(p, b, q)) expPhi1(S, treeT[at(q)], phi1);
         if (intoP(p, b, q)) expPhi1(-S, treeT[at(p)], phi1);
     };
-    // One connection's edges out of p, swept form; marks the steep ones in w.steep.
-    auto sweptEdges = [&](const std::array<std::vector<Mat3>, 3>& gamma, Index p, std::array<std::vector<Vec3>, 3>& from,
-                          std::array<std::vector<Vec3>, 3>& to, std::array<std::vector<Mat3>, 3>& up,
-                          std::array<std::vector<Mat3>, 3>& down, std::vector<Mat3>& treeT) {
-        std::array<Mat3, 3> S, E, phi1;
-        std::array<int, 3> axis{};
+    // One connection's edges along axis b, swept form, out of the points [begin, end): the
+    // edges of consecutive points exponentiated together (expPhi1Batch, the same bits); marks
+    // the steep ones in w.steep (`first`: the first connection, which clears the marks).
+    auto sweptEdges = [&](const std::array<std::vector<Mat3>, 3>& gamma, int b, Index begin, Index end,
+                          std::vector<Vec3>& from, std::vector<Vec3>& to, std::vector<Mat3>& up,
+                          std::vector<Mat3>& down, std::vector<Mat3>& treeT, bool first) {
+        constexpr int kBatch = 4;
+        std::array<Mat3, kBatch> S, E, phi1;
+        std::array<Index, kBatch> point{};
+        const std::size_t bb = at(b);
         int count = 0;
-        for (int b = 0; b < 3; ++b) {
-            const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
-            if (q == kNoPoint) continue;
-            S[at(count)] = generator(gamma, p, b, q);
-            axis[at(count++)] = b;
-        }
-        expPhi1Batch(S.data(), E.data(), phi1.data(), count);
-        for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l) {
-            const int b = axis[l];
-            const std::size_t bb = at(b);
-            const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
-            up[bb][at(p)] = E[l];
-            down[bb][at(p)] = E[l].inverse();
-            from[bb][at(p)] = phi1[l].col(b);
-            to[bb][at(p)] = down[bb][at(p)] * from[bb][at(p)];
-            if (intoQ(p, b, q)) treeT[at(q)] = up[bb][at(p)];
-            if (intoP(p, b, q)) treeT[at(p)] = down[bb][at(p)];
-            if (S[l].cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound) w.steep[bb][at(p)] = 1;
-        }
-    };
-    parallelFor(n, [&](Index p) {
-        if (sweeping) {
-            for (auto& steep : w.steep) steep[at(p)] = 0;
-            sweptEdges(gamma0, p, w.from0, w.to0, w.up0, w.down0, w.tree0);
-            sweptEdges(gamma1, p, w.from1, w.to1, w.up1, w.down1, w.tree1);
-        }
-        for (int b = 0; b < 3; ++b) {
-            const std::size_t bb = at(b);
+        auto flush = [&] {
+            expPhi1Batch(S.data(), E.data(), phi1.data(), count);
+            for (std::size_t l = 0; l < static_cast<std::size_t>(count); ++l) {
+                const Index p = point[l];
+                const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
+                up[at(p)] = E[l];
+                down[at(p)] = E[l].inverse();
+                from[at(p)] = phi1[l].col(b);
+                to[at(p)] = down[at(p)].lazyProduct(from[at(p)]);
+                if (intoQ(p, b, q)) treeT[at(q)] = up[at(p)];
+                if (intoP(p, b, q)) treeT[at(p)] = down[at(p)];
+                if (S[l].cwiseAbs().colwise().sum().maxCoeff() > kSweepEdgeBound) w.steep[bb][at(p)] = 1;
+            }
+            count = 0;
+        };
+        for (Index p = begin; p < end; ++p) {
+            if (first) w.steep[bb][at(p)] = 0;
             const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
             if (q == kNoPoint) {
-                w.from0[bb][at(p)].setZero();
-                w.to0[bb][at(p)].setZero();
-                w.from1[bb][at(p)].setZero();
-                w.to1[bb][at(p)].setZero();
-            } else if (!sweeping) {
-                treeEdge(gamma0, p, b, q, w.from0[bb][at(p)], w.to0[bb][at(p)], w.tree0);
-                treeEdge(gamma1, p, b, q, w.from1[bb][at(p)], w.to1[bb][at(p)], w.tree1);
+                from[at(p)].setZero();
+                to[at(p)].setZero();
+                continue;
             }
+            S[at(count)] = generator(gamma, p, b, q);
+            point[at(count++)] = p;
+            if (count == kBatch) flush();
         }
-    }, 256);
+        if (count > 0) flush();
+    };
+    // With sweeps, one connection and one axis a pass: measured at r = 32 (dgv bench step),
+    // both connections in one pass (32 arrays written at once) took 95 ms, one connection a pass
+    // (16 arrays) 70 ms, one connection and axis a pass (6) 58 ms; the point's record of all six
+    // transports (one array of 432-byte records) 80 ms. The hardware follows only so many streams.
+    auto sweptPass = [&](const std::array<std::vector<Mat3>, 3>& gamma, std::array<std::vector<Vec3>, 3>& from,
+                         std::array<std::vector<Vec3>, 3>& to, std::array<std::vector<Mat3>, 3>& up,
+                         std::array<std::vector<Mat3>, 3>& down, std::vector<Mat3>& treeT, bool first) {
+        for (int b = 0; b < 3; ++b) {
+            const std::size_t bb = at(b);
+            parallelForBlocks(n, [&](Index begin, Index end) {
+                sweptEdges(gamma, b, begin, end, from[bb], to[bb], up[bb], down[bb], treeT, first);
+            }, 1024);
+        }
+    };
+    if (sweeping) {
+        sweptPass(gamma0, w.from0, w.to0, w.up0, w.down0, w.tree0, true);
+        sweptPass(gamma1, w.from1, w.to1, w.up1, w.down1, w.tree1, false);
+    } else {
+        auto treePass = [&](const std::array<std::vector<Mat3>, 3>& gamma, std::array<std::vector<Vec3>, 3>& from,
+                            std::array<std::vector<Vec3>, 3>& to, std::vector<Mat3>& treeT) {
+            for (int b = 0; b < 3; ++b) {
+                const std::size_t bb = at(b);
+                parallelFor(n, [&](Index p) {
+                    const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
+                    if (q == kNoPoint) {
+                        from[bb][at(p)].setZero();
+                        to[bb][at(p)].setZero();
+                    } else {
+                        treeEdge(gamma, p, b, q, from[bb][at(p)], to[bb][at(p)], treeT);
+                    }
+                }, 1024);
+            }
+        };
+        treePass(gamma0, w.from0, w.to0, w.tree0);
+        treePass(gamma1, w.from1, w.to1, w.tree1);
+    }
+    w.edgeSeconds = lap();
     // The frames along the tree (eq 57), both connections at once, in the tree's order (the
     // parents are recent entries), then put back in point order.
     w.ordered0.resize(m);
@@ -365,7 +401,7 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     auto integrate = [&](std::vector<Mat3>& ordered) {  // in place: transport -> frame
         for (std::size_t i = 0; i < m; ++i) {
             const Index parent = tree.parentPosition[i];
-            ordered[i] = parent < 0 ? frames[at(tree.order[i])] : Mat3(ordered[at(parent)] * ordered[i]);
+            ordered[i] = parent < 0 ? frames[at(tree.order[i])] : Mat3(ordered[at(parent)].lazyProduct(ordered[i]));
         }
     };
     parallelInvoke([&] { integrate(w.ordered0); }, [&] { integrate(w.ordered1); });
@@ -380,6 +416,7 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
         w.frames0[at(tree.order[at(i)])] = w.ordered0[at(i)];
         w.frames1[at(tree.order[at(i)])] = w.ordered1[at(i)];
     });
+    w.treeSeconds = lap();
     // Red-black Gauss-Seidel sweeps over each frame field: every point not a root takes the mean
     // of its neighbours' frames carried across the edges, F(q) ← mean_p F(p) exp(S_pq), the
     // least-squares frame of q given its neighbours (docs/math.md, "Frames that do not depend
@@ -394,37 +431,48 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     // edge (|S|_1 > kSweepEdgeBound in either connection: a fold beginning) keeps its tree
     // frame, a guard: there exp(±S) scales a neighbour's frame by up to e^|S|, and a mean of such
     // predictions is no better a frame than the tree's (a smooth shape's Γ stays well under 1).
-    auto sweep = [&](const std::array<std::vector<Mat3>, 3>& up, const std::array<std::vector<Mat3>, 3>& down,
-                     std::vector<Mat3>& F, int colour) {
-        parallelFor(n, [&](Index q) {
-            const Vec3i& u = lat.coords[at(q)];
-            if (((u.x() + u.y() + u.z()) & 1) != colour) return;
-            if (tree.parent[at(q)] == kNoPoint) return;  // a root, or a point the tree misses
+    // The points that sweep, per colour (u.x + u.y + u.z even or odd), listed once: not a root,
+    // not on a steep edge. A colour's points read only the other colour's frames, so the points
+    // of a colour update in any order to the same bits.
+    if (sweeping) {
+        for (auto& list : w.swept) list.clear();
+        for (Index q = 0; q < n; ++q) {
+            if (tree.parent[at(q)] == kNoPoint) continue;  // a root, or a point the tree misses
+            bool steep = false;
             for (std::size_t b = 0; b < 3; ++b) {
                 const Index below = lat.neighbours[at(q)][2 * b];
-                if ((below != kNoPoint && w.steep[b][at(below)]) || w.steep[b][at(q)]) return;
+                if ((below != kNoPoint && w.steep[b][at(below)]) || w.steep[b][at(q)]) steep = true;
             }
-            Mat3 sum = Mat3::Zero();
-            int count = 0;
-            for (std::size_t b = 0; b < 3; ++b) {
-                const Index below = lat.neighbours[at(q)][2 * b], above = lat.neighbours[at(q)][2 * b + 1];
-                if (below != kNoPoint) {  // the edge below -> q, stored on below
-                    sum.noalias() += F[at(below)] * up[b][at(below)];
-                    ++count;
-                }
-                if (above != kNoPoint) {  // the edge q -> above, stored on q, crossed backwards
-                    sum.noalias() += F[at(above)] * down[b][at(q)];
-                    ++count;
-                }
+            const Vec3i& u = lat.coords[at(q)];
+            if (!steep) w.swept[at((u.x() + u.y() + u.z()) & 1)].push_back(q);
+        }
+    }
+    auto meanFrame = [&](const std::array<std::vector<Mat3>, 3>& up, const std::array<std::vector<Mat3>, 3>& down,
+                         const std::vector<Mat3>& F, Index q) {
+        Mat3 sum = Mat3::Zero();
+        int count = 0;
+        for (std::size_t b = 0; b < 3; ++b) {
+            const Index below = lat.neighbours[at(q)][2 * b], above = lat.neighbours[at(q)][2 * b + 1];
+            if (below != kNoPoint) {  // the edge below -> q, stored on below
+                sum.noalias() += F[at(below)].lazyProduct(up[b][at(below)]);
+                ++count;
             }
-            F[at(q)] = sum / static_cast<Real>(count);
-        }, 1024);
+            if (above != kNoPoint) {  // the edge q -> above, stored on q, crossed backwards
+                sum.noalias() += F[at(above)].lazyProduct(down[b][at(q)]);
+                ++count;
+            }
+        }
+        return Mat3(sum / static_cast<Real>(count));
     };
     for (int k = 0; k < frameSweeps; ++k)
-        for (int colour = 0; colour < 2; ++colour) {
-            sweep(w.up0, w.down0, w.frames0, colour);
-            sweep(w.up1, w.down1, w.frames1, colour);
-        }
+        for (const std::vector<Index>& list : w.swept)  // one field at a time: measured, both in one
+            for (int field = 0; field < 2; ++field)      // pass took twice as long (twice the streams)
+                parallelFor(static_cast<Index>(list.size()), [&](Index i) {
+                    const Index q = list[at(i)];
+                    if (field == 0) w.frames0[at(q)] = meanFrame(w.up0, w.down0, w.frames0, q);
+                    else w.frames1[at(q)] = meanFrame(w.up1, w.down1, w.frames1, q);
+                }, 512);
+    w.sweepSeconds = lap();
     // D1 − D0 per edge (positionStep's arithmetic).
     parallelFor(n, [&](Index p) {
         for (int b = 0; b < 3; ++b) {
@@ -434,11 +482,12 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                 forward[bb][at(p)].setZero();
                 continue;
             }
-            const Vec3 d1 = Real(0.5) * (w.frames1[at(p)] * w.from1[bb][at(p)] + w.frames1[at(q)] * w.to1[bb][at(p)]);
-            const Vec3 d0 = Real(0.5) * (w.frames0[at(p)] * w.from0[bb][at(p)] + w.frames0[at(q)] * w.to0[bb][at(p)]);
+            const Vec3 d1 = Real(0.5) * (w.frames1[at(p)].lazyProduct(w.from1[bb][at(p)]) + w.frames1[at(q)].lazyProduct(w.to1[bb][at(p)]));
+            const Vec3 d0 = Real(0.5) * (w.frames0[at(p)].lazyProduct(w.from0[bb][at(p)]) + w.frames0[at(q)].lazyProduct(w.to0[bb][at(p)]));
             forward[bb][at(p)] = d1 - d0;
         }
     });
+    w.stepSeconds = lap();
 }
 
 }  // namespace dgv
