@@ -70,15 +70,18 @@ TEST_CASE("e2e: ring_drop's putty blob runs 240 frames within the volume goals a
     const Rows rows = runShipped(dir, "ring_drop", 240);
     REQUIRE(rows.size() == 240);
     const Figures f = figuresOf(rows);
-    checkVolumeGoals(f);  // measured: max cell error 2.0e-6, drift 7.7e-8
-    // At rest under the ring over the last two seconds, not at one frame: the resting putty
-    // jitters (docs/math.md, "What the step does not do yet"), 7e-5 to 1e-2 J over frames
-    // 193-240, so the last frame alone passed or failed by chance.
+    checkVolumeGoals(f);  // measured: max cell error 2.0e-6, drift 6.6e-8
+    // At rest under the ring over the last two seconds. At damping 1 (the scene until 2026-11-30)
+    // the resting putty jittered, its median kinetic energy over frames 193-240 4.8e-4 J on one
+    // machine, 1.2e-3 J on another and 8.0e-4 J with glibc's libm made to skip its FMA code
+    // (chaotic: a last bit anywhere changed it), and run on it faulted at frame 271 on the rim
+    // of its puddle (docs/math.md, "What the step does not do yet"). At 1.5 it settles the same
+    // way under either libm, to 1.3e-7 J by frame 480.
     std::vector<double> resting;
     for (std::size_t i = rows.size() - 48; i < rows.size(); ++i) resting.push_back(rows[i].at("kinetic_energy"));
     std::sort(resting.begin(), resting.end());
-    CHECK(resting[24] < 1e-3);    // the median (measured 4.8e-4 J; 478 J at frame 13 as it fell)
-    CHECK(resting.back() < 0.05);  // no kick (measured 1.0e-2 J; a switch to swept frames in contact once gave 0.19 J)
+    CHECK(resting[24] < 1e-3);    // the median (measured 1.9e-4 J, still decaying; 478 J at frame 13 as it fell)
+    CHECK(resting.back() < 2e-3);  // no kick, no jitter (measured 3.8e-4 J; at damping 1, 1e-2 to 3.4e-2 J)
     CHECK(rows.back().at("contacts") > 0);  // on the ground
 }
 
