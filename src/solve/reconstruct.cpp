@@ -482,8 +482,12 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                 forward[bb][at(p)].setZero();
                 continue;
             }
-            const Vec3 d1 = Real(0.5) * (w.frames1[at(p)].lazyProduct(w.from1[bb][at(p)]) + w.frames1[at(q)].lazyProduct(w.to1[bb][at(p)]));
-            const Vec3 d0 = Real(0.5) * (w.frames0[at(p)].lazyProduct(w.from0[bb][at(p)]) + w.frames0[at(q)].lazyProduct(w.to0[bb][at(p)]));
+            // lazyProduct: the products inline (Eigen's own call per 3×3 product was 8% of the
+            // step's profile), the same arithmetic
+            const Vec3 d1 = Real(0.5) * (w.frames1[at(p)].lazyProduct(w.from1[bb][at(p)]) +
+                                         w.frames1[at(q)].lazyProduct(w.to1[bb][at(p)]));
+            const Vec3 d0 = Real(0.5) * (w.frames0[at(p)].lazyProduct(w.from0[bb][at(p)]) +
+                                         w.frames0[at(q)].lazyProduct(w.to0[bb][at(p)]));
             forward[bb][at(p)] = d1 - d0;
         }
     });
