@@ -491,7 +491,6 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
             forward[bb][at(p)] = d1 - d0;
         }
     });
-    w.stepSeconds = lap();
 }
 
 }  // namespace dgv

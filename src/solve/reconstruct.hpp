@@ -122,7 +122,7 @@ struct ConnectionChangeWorkspace {
     std::vector<Mat3> frames0, frames1;  ///< #P: the frames of each connection
     std::array<std::vector<Mat3>, 3> up0, down0, up1, down1;  ///< every edge p -> p + e_b, on p: exp(±S)
     std::array<std::vector<unsigned char>, 3> steep;  ///< every edge, on p: 1 where |S|_1 is past the sweeps' bound
-    double edgeSeconds = 0, treeSeconds = 0, sweepSeconds = 0, stepSeconds = 0;  ///< the last call's stages
+    double edgeSeconds = 0, treeSeconds = 0, sweepSeconds = 0;  ///< the last call's stages (seconds)
     std::array<std::vector<Index>, 2> swept;  ///< the points the sweeps update, per colour
 };
 
