@@ -152,10 +152,13 @@ bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::arr
         E = Fi * si * si * F;
     } else {
         const Mat3 G = step - Mat3::Identity();
-        Vec3 axis;
-        Real angle = 0;
-        stepRotation(G, axis, angle);
-        Mat3 world = settings.twistRotation ? rotation(axis, -2 * angle) : Mat3(Mat3::Identity());
+        Mat3 world = Mat3::Identity();
+        if (settings.twistRotation) {
+            Vec3 axis;
+            Real angle = 0;
+            stepRotation(G, axis, angle);
+            world = rotation(axis, -2 * angle);
+        }
         if (settings.twistStretch == TwistStretch::DampOnly) {
             // stretch eigenvalues d > 0 damp by (1 + d)^-2 ≈ exp(-2 δt D); d < 0 would amplify: dropped
             Eigen::SelfAdjointEigenSolver<Mat3> es;
@@ -167,18 +170,21 @@ bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::arr
                 world = world * es.eigenvectors() * f.asDiagonal() * es.eigenvectors().transpose();
             }
         }
-        E = Fi * world * F;
+        E = Fi.lazyProduct(world).lazyProduct(F);
     }
+    // ∇∇F_i x_b for each i and b once (the loop below needs each six times); lazyProduct: the
+    // products inline, the same arithmetic as Eigen's out-of-line call.
+    const std::array<Mat3, 3> hx = {hessian[0].lazyProduct(F), hessian[1].lazyProduct(F), hessian[2].lazyProduct(F)};
     PointConnection next;
     for (Mat3& m : next) m.setZero();
     for (int a = 0; a < 3; ++a)
         for (int b = a; b < 3; ++b) {
-            const Vec3 xa = F.col(a), xb = F.col(b);
+            const Vec3 xa = F.col(a);
             // (x_a x_b) : ∇∇F, component i = x_aᵀ (∇∇F_i) x_b
-            const Vec3 hab(xa.dot(hessian[0] * xb), xa.dot(hessian[1] * xb), xa.dot(hessian[2] * xb));
+            const Vec3 hab(xa.dot(hx[0].col(b)), xa.dot(hx[1].col(b)), xa.dot(hx[2].col(b)));
             Vec3 old;
             for (std::size_t d = 0; d < 3; ++d) old[static_cast<Index>(d)] = dGamma[d](a, b);
-            const Vec3 rotated = E * old;
+            const Vec3 rotated = E.lazyProduct(old);
             for (std::size_t c = 0; c < 3; ++c) {
                 Real v = rotated[static_cast<Index>(c)] + dt2 * hab.dot(Fi.row(static_cast<Index>(c)).transpose());
                 if (settings.shapeStiffness > 0) v -= dt2 * settings.shapeStiffness * gamma[c](a, b);
@@ -561,7 +567,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         if (mHavePrev) {
             Mat3 Fp;
             Fp << mTangentPrev[0][i], mTangentPrev[1][i], mTangentPrev[2][i];
-            step = F * Fp.inverse();
+            step = F.lazyProduct(Fp.inverse());
         } else {
             step = Mat3::Identity() + dt * L0;
         }
