@@ -172,8 +172,8 @@ bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::arr
         }
         E = Fi.lazyProduct(world).lazyProduct(F);
     }
-    // ∇∇F_i x_b for each i and b once (the loop below needs each six times); lazyProduct: the
-    // products inline, the same arithmetic as Eigen's out-of-line call.
+    // ∇∇F_i x_b for each i and b once (the loop over the six pairs a <= b below asked for x_b
+    // b + 1 times); lazyProduct: the products inline, the same arithmetic as Eigen's call.
     const std::array<Mat3, 3> hx = {hessian[0].lazyProduct(F), hessian[1].lazyProduct(F), hessian[2].lazyProduct(F)};
     PointConnection next;
     for (Mat3& m : next) m.setZero();
