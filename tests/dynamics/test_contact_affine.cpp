@@ -317,7 +317,7 @@ TEST_CASE("contact: a jelly resting on a frictionless ground stays where it is; 
 
 TEST_CASE("contact: a jelly spinning on a frictionless ground is not spun up by it", "[dynamics][contact]") {
     // A lopsided voxel ball set down on the ground spinning at 1 rad/s about the vertical
-    // (docs/math.md, "The affine contact response spun a resting body up"). The ground pushes
+    // (docs/math.md, "The contact's affine jump adds no torque"). The ground pushes
     // along y only and gravity acts at the centre, so nothing exerts a torque about y: L_y =
     // Σ m ((x − c) × v)_y should be kept while the body sags and its spin rate changes with its
     // moment of inertia. Reading the velocity off the positions after the contact's affine jump
