@@ -52,7 +52,7 @@ void step(std::ostream& out, const BenchOptions& options) {
         const StepReport& med = reports[reports.size() / 2];
         // The mean over a longer run as well: the minimum flatters (the volume projection's
         // prediction settles some steps without a solve), and the cost of a step grows with the
-        // winding (docs/benchmarks.md, "step after the volume-keeping gauge ...").
+        // winding (docs/history/benchmarks.md, "step after the volume-keeping gauge ...").
         double runSeconds = 0;
         for (const StepReport& rep : reports) runSeconds += rep.totalSeconds;
         const int runSteps = std::max(kRunSteps, repeats);
