@@ -4,7 +4,7 @@
 //    refinement) on the two components of a (2, 2k) torus link with 100k segments each, and
 //    with 1M segments each;
 //  - the seed's listing (collide/gln_seed.hpp) at tolerance 10, 1 and 0.2 on the same curves.
-// Targets (issue 5): direct kernel >= 1.8e8 pairs/s on 2 cores; 100k + 100k certified in
+// Targets (docs/benchmarks.md, "gln"): direct kernel >= 1.8e8 pairs/s on 2 cores; 100k + 100k certified in
 // under 1 s; 1M + 1M in under 10 s. --quick: 1k-vertex direct tiles, 10k + 10k, no 1M run.
 
 #include "app/bench.hpp"

@@ -2,8 +2,9 @@
 /// @file gln_exact.hpp
 /// @brief The Gauss linking number (eq 83) of two closed polylines, exactly: the double integral
 /// of eq 87 over one straight segment of each curve has a closed form, the signed solid angle
-/// Ω_ij of the parallelogram of directions between the two segments (docs/gln.md,
-/// shared/notes/gln-exact.md), and lk = Σ_ij Ω_ij / 4π. Sign convention of eq 83:
+/// Ω_ij of the parallelogram of directions between the two segments (docs/gln.md, "Exact: the
+/// closed form per pair of segments"; the formula at `segmentPairSolidAngle` below), and
+/// lk = Σ_ij Ω_ij / 4π. Sign convention of eq 83:
 /// lk = 1/4π ∮∮ (r1 − r2)·(dr1 × dr2) / |r1 − r2|³.
 ///
 /// The direct sum is vectorised (AVX2 where the CPU has it, chosen at run time; a scalar build of

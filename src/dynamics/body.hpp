@@ -4,7 +4,7 @@
 /// the mass-averaged force, integrated by velocity Verlet; and the force moments about the centre
 /// of mass that drive flex (eq 68): the averaged force gradient the seed uses, and the force's
 /// first moment, whose affine fit does not leave the O(1) affine error of the averaged gradient
-/// for nonlinear fields (shared/notes/numerics-findings.md, "Where the seed's dynamics breaks down").
+/// for nonlinear fields (docs/math.md, "Body motion (eqs 66-67) and the force moments behind flex").
 ///
 /// Units: masses in density units × world units³ (kg for kg/m³ and metres); accelerations in
 /// world units/s²; times in seconds. The field is evaluated at a scene frame (forces.hpp); the

@@ -1,6 +1,6 @@
 #pragma once
 /// @file vdb_cache.hpp
-/// @brief Per-frame OpenVDB caches of deformable objects (issue 7; docs/vdb.md): resampled
+/// @brief Per-frame OpenVDB caches of deformable objects (docs/vdb.md): resampled
 /// world-space grids `density`, `vel`, `rest`, `contact` (and optionally `surface`), plus the
 /// material-lattice grids `position` and `volume_ratio` of each object. OpenVDB appears only in
 /// vdb_cache.cpp; callers pass plain dgv data.

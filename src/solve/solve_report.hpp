@@ -1,6 +1,6 @@
 #pragma once
 /// @file solve_report.hpp
-/// @brief The outcome of a solve: numerical trouble is a returned value (STYLE.md H6).
+/// @brief The outcome of a solve: numerical trouble is a returned value (docs/conventions.md).
 
 #include "base/types.hpp"
 

@@ -129,9 +129,9 @@ TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over i
     // total momentum is kept to round-off (before: each body stopped its own approach, 4.31 →
     // −0.15 kg m/s). The heavy ball leaves with between the perfectly inelastic share
     // m_a/(m_a + m_b) of the momentum and the perfectly elastic one, twice that. Again with a
-    // ground far below that neither ball touches: until 2026-11-28 every point inside the other
-    // ball also counted as touching the ground, the pair was taken for one held by a static
-    // collider, and its momentum was not put right.
+    // ground far below that neither ball touches: were every point inside the other ball also
+    // counted as touching the ground, the pair would be taken for one held by a static
+    // collider, and its momentum would not be put right.
     test::TempDir dir("blobs-momentum");
     const Real h = 0.025;
     const Lattice small = test::sphereLattice(4, h, Vec3(-0.4, 0, 0) - Vec3::Constant(4 * h));
@@ -191,8 +191,8 @@ TEST_CASE("body contact: a jelly dropped off-centre onto a resting one bounces o
           "[collide][body][sim]") {
     // A 0.25 m ball dropped from 1.1 m onto a 0.3 m one resting on the ground, 8 cm off its axis
     // (k = 3000/s², damping 2/s, friction 0.5; docs/math.md, "Friction acts on the patch's
-    // slip"). Until the contact patch's slip took the friction (2026-11-28) the upper ball left
-    // spinning, landed and spun on the spot with the lower one until the lattice folded (frame
+    // slip"). With the friction on the centre instead of the contact patch's slip the upper ball
+    // left spinning, landed and spun on the spot with the lower one until the lattice folded (frame
     // 33 of the same pair at 12 and 10 voxels across in `dgv simulate`).
     test::TempDir dir("stack");
     const Real h = 0.05;
@@ -232,8 +232,8 @@ TEST_CASE("body contact: a jelly dropped off-centre onto a resting one bounces o
     // pushes it off along −x and turns it, and on the rough ground it rolls away (its contact
     // point does not slip: v_x + ω_z y = 0). Measured: 0.61 m off at 0.44 m/s, spin 1.50 rad/s,
     // slip −5e-3 m/s.
-    // (Until 2026-11-29 it stayed within 3.5 cm of its spot, at rest: its flex lost its spin every
-    // step; docs/math.md, "The flex keeps its spin".)
+    // (With a flex that loses its spin every step it stays within 3.5 cm of its spot, at rest;
+    // docs/math.md, "The flex keeps its spin".)
     const Mat3 L = sim.body(0)->flexVelocity() * sim.body(0)->flex().inverse();
     const Real spinA = Real(0.5) * (L(1, 0) - L(0, 1));
     const Real slipA = va.x() + spinA * a.y();

@@ -1,4 +1,4 @@
-// The dynamics step against the long-run and accuracy goals of the dynamics issue
+// The dynamics step against its long-run and accuracy goals
 // (docs/math.md, "The dynamics step"): 1,000 frames of a jelly under a strong, changing vortex
 // with no fault, no inverted cell and bounded energy; and a vortex over a short time against the
 // free-particle motion of every material point, with the error shrinking as δt does.
@@ -128,7 +128,7 @@ TEST_CASE("stepper: a jelly under a strong alternating vortex for 1000 frames", 
     // over the half's 50-frame windows (each holds a full period) of each window's peak: the
     // windows' peaks of Σ|δΓ|² vary 3× with the vortex's phase, so the halves' single largest
     // peaks are a noisy figure (0.0686 → 0.0781 while every window after frame 672 stayed below
-    // 0.068, measured 2026-11-29).
+    // 0.068, measured).
     const Real h = 0.05;
     const Lattice lat = ball(4, h, Vec3(0.1, 0, 0));
     DynamicsSettings jelly;
@@ -197,7 +197,7 @@ TEST_CASE("stepper: a jelly under a strong alternating vortex for 1000 frames", 
     CHECK(keHalf[0] > 1);  // the field really drives it (4.6 J about the centre, 30 J with the orbit)
     CHECK(dgHalf[1] > 0.1 * dgHalf[0]);  // and still deforms it at the end
     CHECK(axisDistance < 1.0);  // still where the vortex is strong (2.5 m/s² at 0.65 m, measured)
-    // measured (mean window peaks, 2026-11-29, fourth session: the flex keeping its spin): 4.594 →
+    // measured (mean window peaks, with the flex keeping its spin): 4.594 →
     // 4.595 J about the centre and 0.0609 → 0.0545 (while the flex lost its spin: 2.93 → 2.41 J;
     // the whole kinetic energy's window peaks, 22.5 → 26.8 J, rise and fall with the orbit).
     // Earlier, with the whole kinetic energy: 24.8 → 24.5 J and 0.0468 → 0.0460 (the old gauge:

@@ -1,5 +1,5 @@
-// Pins by vertex group (issue 4, point 6: "pinned material points (a box, sphere or vertex group
-// in the scene)"): `pin.group` names a mesh or node of the object's mesh file (an OBJ `g` group,
+// Pins by vertex group (pinned material points are a box, a sphere or a vertex group in the
+// scene): `pin.group` names a mesh or node of the object's mesh file (an OBJ `g` group,
 // as Blender's OBJ export writes vertex groups); the material points that carry the group's
 // vertices (the corners of a vertex's lattice cell, or its anchor near the surface) never move.
 #include "dynamics/lattices.hpp"

@@ -1,4 +1,4 @@
-// A shipped scene run past its last frame (issue 4: every shipped dynamics scene keeps the volume
+// A shipped scene run past its last frame (every shipped dynamics scene keeps the volume
 // goals over 240 frames). `ring_drop`'s blob is putty (stiffness with a yield; docs/math.md,
 // "Plasticity: the rest shape yields"): as goo it spread into a sheet thinner than the lattice
 // and folded at frame 53, as jelly it faults at frame 38 wedged under the ring. The scene file is
@@ -54,7 +54,7 @@ Figures figuresOf(const Rows& rows) {
     return f;
 }
 
-/// Issue 4's goals on every shipped dynamics scene: max cell error ≤ 1e-4, |total drift| ≤ 1e-6,
+/// The volume goals of every shipped dynamics scene: max cell error ≤ 1e-4, |total drift| ≤ 1e-6,
 /// no inverted cell.
 void checkVolumeGoals(const Figures& f) {
     CHECK(f.maxErr <= 1e-4);
@@ -71,7 +71,7 @@ TEST_CASE("e2e: ring_drop's putty blob runs 240 frames within the volume goals a
     REQUIRE(rows.size() == 240);
     const Figures f = figuresOf(rows);
     checkVolumeGoals(f);  // measured: max cell error 2.0e-6, drift 6.6e-8
-    // At rest under the ring over the last two seconds. At damping 1 (the scene until 2026-11-30)
+    // At rest under the ring over the last two seconds. At damping 1 (the scene's earlier value)
     // the resting putty jittered, its median kinetic energy over frames 193-240 4.8e-4 J on one
     // machine, 1.2e-3 J on another and 8.0e-4 J with glibc's libm made to skip its FMA code
     // (chaotic: a last bit anywhere changed it), and run on it faulted at frame 271 on the rim

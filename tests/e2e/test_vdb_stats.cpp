@@ -1,5 +1,5 @@
-// A VDB cache written by `dgv simulate --vdb` agrees with the stats.csv of the same run (issue 7,
-// point 4): every cell's volume recomputed from the `position` grid (the exact trilinear
+// A VDB cache written by `dgv simulate --vdb` agrees with the stats.csv of the same run: every
+// cell's volume recomputed from the `position` grid (the exact trilinear
 // hexahedron volume of its 8 corners) matches `volume_ratio` × V0, and the largest cell error
 // and the total drift over the cache match stats.csv's `max_cell_volume_error` and
 // `total_volume_drift` frame by frame. One substep per frame, so that stats.csv's maximum over

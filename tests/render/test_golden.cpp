@@ -1,4 +1,4 @@
-// Golden-image tests (issue 6, point 6): small scenes rendered and compared on decoded pixels
+// Golden-image tests: small scenes rendered and compared on decoded pixels
 // with the references in tests/golden/ by the golden-image rule (render/image_compare.hpp:
 // a pixel differs when a channel is off by more than 4/255; at most 0.5% may differ), plus
 // probes at known pixels so that a small local defect (a missing highlight) cannot hide in
