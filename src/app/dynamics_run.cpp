@@ -50,6 +50,11 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
     mSim->setSurfaceDistance([](const TriangleMesh& mesh, Real voxel, int band) {
         return meshLevelSet(mesh, voxel, band, "an object's deformed surface");
     });
+    if (mSim->active()) mSim->checkStartOverlap();
+    // Each frame's rendered surface is checked before the frame is written (docs/math.md, "Never a
+    // torn frame").
+    for (std::size_t i = 0; i < objects.size(); ++i)
+        if (mSim->body(i)) mSim->setSurface(i, &objects[i].restMesh, &objects[i].embedding);
     mRows.push_back(statsCsvHeader());
     if (mSim->active()) mSceneKey = sceneDynamicsKey(scene, lattices);
 }

@@ -38,6 +38,7 @@ void resolvePinGroups(SceneDesc& scene) {
         if (desc.pin.kind != PinDesc::Kind::Group) continue;
         MeshImportOptions opts;
         opts.meshName = desc.pin.group;
+        opts.orientOutward = false;  // only the vertices are used
         TriangleMesh group;
         try {
             group = importMesh(desc.meshPath, opts);

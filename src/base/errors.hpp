@@ -4,7 +4,8 @@
 /// which prints what() as one line and exits with the code below.
 ///   InputError   - bad input or usage (a malformed scene, a broken mesh, an impossible
 ///                  setting): exit 2, and nothing is written.
-///   RuntimeError - a run-time failure (disk full, GL context unavailable): exit 1.
+///   RuntimeError - a run-time failure (disk full, GL context unavailable, or a NumericalError:
+///                  the dynamics faulted): exit 1.
 /// Bugs use DGV_CHECK (check.hpp); numerical trouble is a returned report.
 
 #include <stdexcept>
@@ -37,6 +38,14 @@ private:
 class RuntimeError : public std::runtime_error {
 public:
     using std::runtime_error::runtime_error;
+};
+
+/// Numerical trouble in the dynamics that the run cannot step past (the lattice folds, a position
+/// becomes non-finite, the rendered surface tears): a RuntimeError (exit 1) that the frame loop
+/// can tell from I/O failures, and retry (sim/simulation, Simulation::advanceTo).
+class NumericalError : public RuntimeError {
+public:
+    using RuntimeError::RuntimeError;
 };
 
 /// Exit codes of the dgv command (documented in README.md).

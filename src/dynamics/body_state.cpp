@@ -92,6 +92,7 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mDisplacementPrev = std::move(s.displacementPrev);
     mVolumeLambda = std::move(s.volumeLambda);
     mVolumeLambdaPrev = std::move(s.volumeLambdaPrev);
+    mPredicted = false;  // a step cut short by a fault (Simulation::advanceTo retries the frame)
     // The geometric state is a function of the positions (the step ends by computing it so).
     computeGeometricState(mLat, mX, mState, BoundaryStencils::Realisable);
     mVolumeCache.builtFromPositions = std::move(s.volumeCachePositions);

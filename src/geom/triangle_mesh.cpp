@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 #include <utility>
 
 namespace dgv {
@@ -98,6 +99,51 @@ void transformMesh(TriangleMesh& mesh, const Mat3& linear, const Vec3& translati
     for (Vec3& v : mesh.vertices) v = linear * v + translation;
     if (linear.determinant() < 0)
         for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+}
+
+OrientReport orientOutward(TriangleMesh& mesh) {
+    OrientReport report;
+    report.volumeBefore = meshSignedVolume(mesh);
+    // Parts: union-find over the vertices of each triangle.
+    std::vector<std::size_t> parent(mesh.vertices.size());
+    for (std::size_t v = 0; v < parent.size(); ++v) parent[v] = v;
+    auto root = [&](std::size_t v) {
+        while (parent[v] != v) v = parent[v] = parent[parent[v]];
+        return v;
+    };
+    for (const auto& t : mesh.triangles)
+        for (int k = 1; k < 3; ++k) {
+            const std::size_t a = root(static_cast<std::size_t>(t[0])), b = root(static_cast<std::size_t>(t[k]));
+            if (a != b) parent[std::max(a, b)] = std::min(a, b);
+        }
+    // Per part (keyed by its root): bounds, then the signed volume about the bounds centre.
+    std::vector<std::size_t> partOf(mesh.vertices.size(), SIZE_MAX);
+    std::vector<Box3> bounds;
+    std::vector<std::size_t> triPart(mesh.triangles.size());
+    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+        const std::size_t r = root(static_cast<std::size_t>(mesh.triangles[i][0]));
+        if (partOf[r] == SIZE_MAX) {
+            partOf[r] = bounds.size();
+            bounds.emplace_back();
+        }
+        triPart[i] = partOf[r];
+        for (int v : mesh.triangles[i]) bounds[triPart[i]].extend(mesh.vertices[static_cast<std::size_t>(v)]);
+    }
+    std::vector<Real> volume(bounds.size(), 0);
+    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+        const Vec3 c = bounds[triPart[i]].centre();
+        const auto& t = mesh.triangles[i];
+        const Vec3 a = mesh.vertices[static_cast<std::size_t>(t[0])] - c;
+        const Vec3 b = mesh.vertices[static_cast<std::size_t>(t[1])] - c;
+        const Vec3 d = mesh.vertices[static_cast<std::size_t>(t[2])] - c;
+        volume[triPart[i]] += a.dot(b.cross(d)) / 6;
+    }
+    report.parts = bounds.size();
+    for (Real v : volume) report.flippedParts += v < 0 ? 1 : 0;
+    if (report.flippedParts > 0)
+        for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+            if (volume[triPart[i]] < 0) std::swap(mesh.triangles[i][1], mesh.triangles[i][2]);
+    return report;
 }
 
 std::vector<Vec3> vertexNormals(const TriangleMesh& mesh) {

@@ -52,6 +52,20 @@ MeshReport analyseMesh(const TriangleMesh& mesh);
 /// that normals stay outward.
 void transformMesh(TriangleMesh& mesh, const Mat3& linear, const Vec3& translation);
 
+/// What orientOutward did.
+struct OrientReport {
+    std::size_t parts = 0;         ///< connected parts (triangles sharing vertices)
+    std::size_t flippedParts = 0;  ///< parts that were inside out and were turned around
+    Real volumeBefore = 0;         ///< the mesh's signed volume before (negative: inside out)
+};
+
+/// Turns every connected part of the mesh whose signed volume (about the part's bounds centre,
+/// so that an open part does not depend on where the origin is) is negative: its triangles'
+/// winding is reversed so that normals point out. The winding number, which decides what is
+/// inside (geom/voxelise), integrates to the signed volume, so an inside-out part voxelises to
+/// nothing until turned. Deterministic; parts are found by shared vertex indices.
+OrientReport orientOutward(TriangleMesh& mesh);
+
 /// Per-vertex normals: area-weighted sum of incident face normals, normalised; zero for a
 /// vertex no (non-degenerate) triangle uses.
 std::vector<Vec3> vertexNormals(const TriangleMesh& mesh);

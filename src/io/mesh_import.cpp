@@ -1,6 +1,7 @@
 #include "io/mesh_import.hpp"
 
 #include "base/errors.hpp"
+#include "base/progress.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -15,6 +16,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -447,6 +449,20 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
     if (mesh.triangles.empty())
         throw InputError(p, "", "no triangles (all " + std::to_string(before) +
                                     " triangles are degenerate)");
+    if (options.orientOutward) {
+        c.report.orientation = orientOutward(mesh);
+        const OrientReport& o = c.report.orientation;
+        if (o.flippedParts > 0) {
+            char line[200];
+            if (o.parts == 1)
+                std::snprintf(line, sizeof line, "the mesh is inside out (signed volume %.4g); its triangles were turned around",
+                              o.volumeBefore);
+            else
+                std::snprintf(line, sizeof line, "%zu of its %zu parts are inside out; their triangles were turned around",
+                              o.flippedParts, o.parts);
+            logWarning(p + ": " + line);
+        }
+    }
     if (report) *report = c.report;
     return mesh;
 }

@@ -13,17 +13,22 @@ namespace dgv {
 
 struct MeshImportOptions {
     std::string meshName;   ///< import only meshes (or nodes) with this name; empty: all
+    /// Turn inside-out parts around (orientOutward), with a warning naming the file. Off for
+    /// imports that use only the vertices (a pin's vertex group).
+    bool orientOutward = true;
 };
 
 struct MeshImportReport {
     std::size_t meshesMerged = 0;       ///< mesh instances (mesh x node) that gave triangles
     std::size_t degenerateDropped = 0;
     std::size_t nonTriangleFaces = 0;   ///< points and lines ignored
+    OrientReport orientation;           ///< parts turned around (orientOutward)
 };
 
 /// Imports the file: walks the node tree accumulating transforms (a transform with det < 0 flips
 /// the winding), merges the selected meshes, welds vertices at exactly the same world position
-/// (so STL files and meshes split by normals come out closed), and drops degenerate triangles.
+/// (so STL files and meshes split by normals come out closed), drops degenerate triangles, and
+/// turns inside-out parts around with a warning (options.orientOutward).
 /// Throws InputError("<path>", "", what) when the file is missing, unreadable
 /// or a folder, assimp cannot read it, a coordinate is NaN or infinite, an index is out of
 /// range, or no triangle remains; never crashes or hangs on broken files. The message is one line,

@@ -541,8 +541,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                                          std::to_string(report.boundaryEdges) + " open edges, " +
                                          std::to_string(report.nonManifoldEdges) +
                                          " non-manifold edges): its inside is what bodies are kept out of");
+                // importMesh turned inside-out parts around; what is left without volume is flat
                 if (!(report.signedVolume > 0))
-                    throw InputError(d.meshPath, "", "the mesh is inside out (negative volume); flip its faces");
+                    throw InputError(d.meshPath, "", "the mesh encloses no volume (it is flat)");
                 const Vec3 extent = report.bounds.size();
                 const Real voxel = d.meshVoxelSize > 0 ? d.meshVoxelSize : extent.maxCoeff() / 128;
                 d.levelSet = std::make_shared<const SdfGrid>(meshLevelSet(mesh, voxel, 3, d.meshPath));

@@ -303,6 +303,8 @@ std::string dynamicsJson(const SceneDesc& scene) {
 std::uint64_t sceneDynamicsKey(const SceneDesc& scene, const std::vector<const Lattice*>& lattices) {
     Fnv f;
     f.text(dynamicsJson(scene));
+    // The rows a checkpoint carries must have stats.csv's current columns.
+    f.text(statsCsvHeader());
     for (const ColliderDesc& c : scene.colliders)
         for (const std::string& path : {c.meshPath, c.levelSetPath}) {
             if (path.empty()) continue;

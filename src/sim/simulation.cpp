@@ -282,6 +282,34 @@ void Simulation::keepPairMomentum(const std::vector<std::vector<Collider>>& coll
     }
 }
 
+void Simulation::checkStartOverlap() const {
+    if (!mObjectContact || !mSurfaceDistance) return;
+    // The deepest point of each ordered pair; the first pair (in object order) past the bound is
+    // reported, with its depth in world units and in voxels of the body whose point it is.
+    std::size_t worstI = 0, worstJ = 0;
+    Real worst = 0, worstVoxels = 0;
+    forClosePairs(false, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const SdfGrid>& distance) {
+        const Real h = mBodies[i]->lattice().spacing;
+        Real deepest = 0;
+        for (const Vec3& x : mBodies[i]->positions()) deepest = std::max(deepest, margin - distance->distance(x));
+        if (deepest / h > kStartOverlapVoxels && deepest / h > worstVoxels) {
+            worstI = i;
+            worstJ = j;
+            worst = deepest;
+            worstVoxels = deepest / h;
+        }
+    });
+    if (worstVoxels == 0) return;
+    const std::size_t a = std::min(worstI, worstJ), b = std::max(worstI, worstJ);
+    char text[300];
+    std::snprintf(text, sizeof text,
+                  "objects '%s' and '%s' start inside each other, %.3g deep (%.1f voxels of '%s'); move them apart or "
+                  "set collision.objects to false",
+                  mScene.objects[a].name.c_str(), mScene.objects[b].name.c_str(), worst, worstVoxels,
+                  mScene.objects[worstI].name.c_str());
+    throw InputError(mScene.path, "objects[" + std::to_string(b) + "].transform", text);
+}
+
 Real Simulation::objectPenetration() const {
     Real deepest = 0;
     if (!mObjectContact || !mSurfaceDistance) return deepest;
@@ -369,9 +397,97 @@ int Simulation::frameSubsteps(int frame) const {
     return std::max(lo, static_cast<int>(std::ceil(need)));
 }
 
+std::string Simulation::faultHint(std::size_t i) const {
+    // A pinned body with load modes that faults may be one held by a small patch (docs/math.md,
+    // "What the step does not do yet"): the fault says what keeps it rigid instead.
+    if (mBodies[i] && !mBodies[i]->loadModes().empty())
+        return " (a pinned body held by a small patch is unstable: pin a face several voxels deep, or set "
+               "material.pinned_load to false to hold it rigid)";
+    return "";
+}
+
+void Simulation::setSurface(std::size_t object, const TriangleMesh* restMesh, const MeshEmbedding* embedding) {
+    DGV_CHECK(object < mBodies.size());
+    DGV_CHECK((restMesh == nullptr) == (embedding == nullptr));
+    if (restMesh) DGV_CHECK_EQ(restMesh->vertices.size(), embedding->size());
+    mSurfaces.resize(mBodies.size());
+    mSurfaces[object].mesh = restMesh;
+    mSurfaces[object].embedding = embedding;
+    mSurfaces[object].setup = restMesh ? prepareSurfaceCheck(*restMesh) : SurfaceCheckSetup{};
+}
+
+bool Simulation::checkSurfaces(FrameStats& s, int* failed, SurfaceCheck* failedCheck) const {
+    SurfaceCheck all;  // the sums, for the stats; each body's surface passes or fails on its own
+    bool allOk = true;
+    if (failed) *failed = -1;
+    std::vector<Vec3> deformed;
+    for (std::size_t i = 0; i < mSurfaces.size() && i < mBodies.size(); ++i) {
+        const DeformableBody* b = mBodies[i].get();
+        if (!b || !mSurfaces[i].mesh) continue;
+        deformVertices(*mSurfaces[i].embedding, b->state(), deformed);
+        const SurfaceCheck c =
+            checkSurface(mSurfaces[i].setup, *mSurfaces[i].mesh, *mSurfaces[i].embedding, b->state(),
+                         b->lattice().spacing, deformed);
+        if (!c.ok()) {
+            allOk = false;
+            if (failed && *failed < 0) {
+                *failed = static_cast<int>(i);
+                if (failedCheck) *failedCheck = c;
+            }
+        }
+        all.triangles += c.triangles;
+        all.flippedTriangles += c.flippedTriangles;
+        all.tornEdges += c.tornEdges;
+        all.worstStretch = std::max(all.worstStretch, c.worstStretch);
+    }
+    s.flippedTriangles = all.flippedTriangles;
+    s.tornEdges = all.tornEdges;
+    s.surfaceStretch = all.worstStretch;
+    return allOk;
+}
+
 FrameStats Simulation::advanceTo(int frame) {
     DGV_CHECK_EQ(frame, mFrame + 1);
-    return simulateFrame(frame, frameSubsteps(frame));
+    // A frame that faults or tears its surface is simulated again from its start at twice the
+    // substeps (docs/math.md, "Never a torn frame"): nothing of it has been written yet, and the
+    // decision is a function of the state, so a resumed run retries the same way.
+    int sub = frameSubsteps(frame);
+    const int firstSub = sub;
+    const int cap = std::max(sub, kRetrySubstepFactor * std::max(mScene.substeps, mScene.maxSubsteps));
+    const std::vector<ObjectState> start = saveState();
+    std::string first;  // the first attempt's fault
+    for (;;) {
+        std::string fault;
+        try {
+            FrameStats s = simulateFrame(frame, sub);
+            int failed = -1;
+            SurfaceCheck c;
+            if (checkSurfaces(s, &failed, &c)) {
+                if (!first.empty()) {
+                    char line[160];
+                    std::snprintf(line, sizeof line, "frame %d: simulated again at %d substeps after: ", frame, sub);
+                    logInfo(line + first);
+                }
+                return s;
+            }
+            char what[240];
+            std::snprintf(what, sizeof what,
+                          "dynamics: frame %d at %d substeps, object '%s': its surface folds or tears (%lld of %lld "
+                          "triangles folded over, %lld edges torn)",
+                          frame, sub, mScene.objects[static_cast<std::size_t>(failed)].name.c_str(),
+                          static_cast<long long>(c.flippedTriangles), static_cast<long long>(c.triangles),
+                          static_cast<long long>(c.tornEdges));
+            fault = what + faultHint(static_cast<std::size_t>(failed));
+        } catch (const NumericalError& e) {
+            fault = e.what();
+        }
+        if (first.empty()) first = fault;
+        restoreState(frame - 1, start);
+        if (sub >= cap)
+            throw NumericalError(fault + " (tried at " + std::to_string(firstSub) + " to " + std::to_string(sub) +
+                                 " substeps; nothing of frame " + std::to_string(frame) + " was written)");
+        sub = std::min(cap, 2 * sub);
+    }
 }
 
 FrameStats Simulation::simulateFrame(int frame, int sub) {
@@ -389,14 +505,8 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             return "frame " + std::to_string(frame) + ", substep " + std::to_string(k + 1) + " of " +
                    std::to_string(sub) + ", object '" + mScene.objects[i].name + "'";
         };
-        // A pinned body with load modes that faults may be one held by a small patch (docs/math.md,
-        // "What the step does not do yet"): the fault says what keeps it rigid instead.
         auto fault = [&](std::size_t i, const std::string& what) {
-            std::string text = "dynamics: " + where(i) + ": " + what;
-            if (!mBodies[i]->loadModes().empty())
-                text += " (a pinned body held by a small patch is unstable: pin a face several voxels deep, or set "
-                        "material.pinned_load to false to hold it rigid)";
-            return RuntimeError(text);
+            return NumericalError("dynamics: " + where(i) + ": " + what + faultHint(i));
         };
         // Every body's prediction first, so the bodies meet each other where they are going.
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
@@ -413,7 +523,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             if (!r.fault.empty()) throw fault(i, r.fault);
             for (const Vec3& x : mBodies[i]->positions())
                 if (!allFiniteNoTrap(x))
-                    throw RuntimeError("dynamics: " + where(i) + ": a position became non-finite; use more substeps or damping");
+                    throw NumericalError("dynamics: " + where(i) + ": a position became non-finite; use more substeps or damping");
             s.maxCellVolumeError = std::max(s.maxCellVolumeError, r.maxCellVolumeError);
             s.invertedCells = std::max(s.invertedCells, r.invertedCells);
             s.limitedPoints += r.limitedPoints;
@@ -473,7 +583,8 @@ void Simulation::restoreState(int frame, std::vector<ObjectState> states) {
 
 std::string statsCsvHeader() {
     return "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
-           "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps";
+           "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps,"
+           "flipped_triangles,torn_edges,surface_stretch";
 }
 
 Real FrameStats::contactPrecision() const {
@@ -485,12 +596,13 @@ Real FrameStats::contactRecall() const {
 }
 
 std::string statsCsvRow(const FrameStats& s) {
-    char buf[512];
-    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d", s.frame, s.time,
+    char buf[640];
+    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d,%lld,%lld,%.4g", s.frame, s.time,
                   s.kineticEnergy, s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift,
                   static_cast<long long>(s.invertedCells), static_cast<long long>(s.contacts),
                   static_cast<long long>(s.limitedPoints), s.stepMs, s.maxPenetration, s.contactPrecision(),
-                  s.contactRecall(), s.substeps);
+                  s.contactRecall(), s.substeps, static_cast<long long>(s.flippedTriangles),
+                  static_cast<long long>(s.tornEdges), s.surfaceStretch);
     return buf;
 }
 

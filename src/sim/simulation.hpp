@@ -10,8 +10,10 @@
 #include "base/types.hpp"
 #include "dynamics/forces.hpp"
 #include "dynamics/stepper.hpp"
+#include "geom/embedding.hpp"
 #include "geom/lattice.hpp"
 #include "geom/sdf_grid.hpp"
+#include "geom/surface_check.hpp"
 #include "geom/triangle_mesh.hpp"
 #include "sim/scene.hpp"
 
@@ -22,7 +24,8 @@
 
 namespace dgv {
 
-/// One frame's figures, over all bodies (stats.csv; docs/dynamics.md).
+/// One frame's figures, over all bodies (stats.csv; docs/math.md, "Never a torn frame" for the
+/// surface check).
 struct FrameStats {
     int frame = 0;
     Real time = 0;                 ///< seconds since frames.start
@@ -45,6 +48,12 @@ struct FrameStats {
     Real contactRecall() const;
     StepReport lastStep;           ///< the last substep's report of the first body (stage times)
     int substeps = 0;              ///< the substeps the frame was simulated at (0: not simulated)
+    /// The embedded surfaces' check at the end of the frame (geom/surface_check), summed over
+    /// the bodies with a surface: a frame where a body's surface fails it is never returned by
+    /// advanceTo (folds on a few triangles pass: SurfaceCheck::ok).
+    Index flippedTriangles = 0;
+    Index tornEdges = 0;
+    Real surfaceStretch = 0;       ///< worst edge stretch against its frames' (torn past kTearRatio)
 };
 
 class GlnNetwork;
@@ -64,10 +73,18 @@ public:
     /// initial velocity.
     bool active() const { return mActive; }
     /// Simulates frame `frame` (must be the frame after the last one; the first call's frame
-    /// must be frames.start + 1) at frameSubsteps() substeps. Throws RuntimeError naming the
-    /// frame, substep, object and fault on numerical trouble (the lattice folds, the affine part
-    /// inverts, a position becomes non-finite).
+    /// must be frames.start + 1) at frameSubsteps() substeps. A frame that faults or whose
+    /// surface fails the check (setSurface) is simulated again from the frame's start at twice
+    /// the substeps, up to kRetrySubstepFactor × max_substeps (docs/math.md, "Never a torn
+    /// frame"). Throws RuntimeError naming the frame, substep, object and fault when that still
+    /// fails (the lattice folds, the affine part inverts, a position becomes non-finite, the
+    /// surface flips or tears); the state is then the frame's start.
     FrameStats advanceTo(int frame);
+    /// How far past max_substeps a failed frame is retried.
+    static constexpr int kRetrySubstepFactor = 2;
+    /// The surface object i renders: its rest mesh and embedding (kept by reference: must
+    /// outlive the simulation), checked at the end of every frame.
+    void setSurface(std::size_t object, const TriangleMesh* restMesh, const MeshEmbedding* embedding);
     /// Figures of the current state without stepping (for frames.start).
     FrameStats currentStats(int frame) const;
 
@@ -91,6 +108,12 @@ public:
     /// (collision.objects) only when it is set.
     using SurfaceDistance = std::function<SdfGrid(const TriangleMesh& mesh, Real voxelSize, int bandVoxels)>;
     void setSurfaceDistance(SurfaceDistance f) { mSurfaceDistance = std::move(f); }
+    /// Objects that collide with each other (collision.objects) must not start inside each
+    /// other: throws InputError naming the scene, both objects and the overlap depth when some
+    /// lattice point of one lies more than kStartOverlapVoxels of its voxels inside the other's
+    /// contact margin (docs/math.md, "Overlapping starts"). Call before anything is written.
+    void checkStartOverlap() const;
+    static constexpr Real kStartOverlapVoxels = 1;
 
 private:
     /// Frame `frame` at `sub` substeps.
@@ -113,6 +136,18 @@ private:
     /// (one velocity shift for the whole group; simulation.cpp).
     void keepPairMomentum(const std::vector<std::vector<Collider>>& colliders,
                           const std::vector<unsigned char>& staticContact);
+    /// The surfaces' check of the current state: its figures summed over the bodies with a
+    /// surface into s; whether every surface passed, the first failing object's index in *failed
+    /// (or -1) and its own figures in *failedCheck.
+    bool checkSurfaces(FrameStats& s, int* failed, SurfaceCheck* failedCheck) const;
+    /// What a fault of body i should add to say how to avoid it (empty: nothing known).
+    std::string faultHint(std::size_t i) const;
+    struct Surface {
+        const TriangleMesh* mesh = nullptr;
+        const MeshEmbedding* embedding = nullptr;
+        SurfaceCheckSetup setup;
+    };
+    std::vector<Surface> mSurfaces;  ///< per object
     SurfaceDistance mSurfaceDistance;
     bool mObjectContact = false;  ///< collision.objects and at least two bodies
     const SceneDesc& mScene;

@@ -77,19 +77,26 @@ TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cach
     std::string line;
     REQUIRE(std::getline(f, line));
     CHECK(line == "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
-                  "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps");
+                  "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps,"
+                  "flipped_triangles,torn_edges,surface_stretch");
     int rows = 0;
     while (std::getline(f, line)) {
         ++rows;
         std::vector<double> v;
         std::stringstream ss(line);
         for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-        REQUIRE(v.size() == 14);
+        REQUIRE(v.size() == 17);
         CHECK(v[0] == rows);           // frames 1..4
         CHECK(v[4] <= 1e-4);           // max_cell_volume_error
         CHECK(std::abs(v[5]) <= 1e-6); // total_volume_drift
         CHECK(v[6] == 0);              // no inverted cell
         CHECK(v[13] == (rows == 1 ? 0 : 2));  // substeps: the scene's 2 (the first frame is not simulated)
+        CHECK(v[14] == 0);                    // flipped_triangles
+        CHECK(v[15] == 0);                    // torn_edges
+        // surface_stretch: the worst edge against its frames' prediction, under the tear bound
+        // (0 on the first row, which is not checked)
+        CHECK(v[16] < 4);
+        if (rows > 1) CHECK(v[16] > 0.5);
     }
     CHECK(rows == 4);
     for (int frame = 1; frame <= 4; ++frame)
@@ -298,7 +305,7 @@ TEST_CASE("cli: imgdiff passes identical images and fails different ones", "[app
     CHECK(fs::exists(dir.path() / "d" / "small.0001.new.png"));
 }
 
-TEST_CASE("cli: every benchmark runs and prints name: value unit lines", "[app][cli][bench]") {
+TEST_CASE("cli: every benchmark runs and prints name: value unit lines", "[app][cli][bench][slow]") {
     auto r = test::runDgv("bench --quick --repeats 1");
     INFO(r.output);
     REQUIRE(r.exitCode == 0);

@@ -93,7 +93,7 @@ TEST_CASE("e2e: bad scene files exit 2 with one line and write nothing", "[e2e][
     });
 }
 
-TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one line", "[e2e][badinput]") {
+TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one line", "[e2e][badinput][slow][sanitize]") {
     checkCases("e2e_bad_values", {
         {"wrong type", {{"s.json", R"({"frames": {"start": "one", "end": 2}})"}}, "render s.json",
          {"s.json", "frames.start", "\"one\""}},
@@ -122,7 +122,35 @@ TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one l
     });
 }
 
-TEST_CASE("e2e: bad meshes exit 2 with one line and write nothing", "[e2e][badinput]") {
+TEST_CASE("e2e: objects that start inside each other exit 2 naming both, and write nothing", "[e2e][badinput][slow]") {
+    // docs/math.md, "Overlapping starts": two balls of radius 0.3 whose centres are 0.4 apart
+    // overlap by 0.2 (less the contact margin of a voxel); render and simulate refuse them.
+    auto pair = [](double apart, const std::string& collision) {
+        return R"({"frames": {"start": 1, "end": 3}, "collision": )" + collision + R"(,
+          "objects": [{"name": "left", "primitive": {"type": "sphere", "radius": 0.3}, "resolution": 12,
+                       "material": {"stiffness": 300}, "velocity": [1, 0, 0]},
+                      {"name": "right", "primitive": {"type": "sphere", "radius": 0.3}, "resolution": 12,
+                       "material": {"stiffness": 300}, "transform": {"translate": [)" + std::to_string(apart) + R"(, 0, 0]}}],
+          "render": {"width": 32, "height": 32, "supersample": 1}})";
+    };
+    checkCases("e2e_bad_overlap", {
+        {"overlapping start (render)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "render s.json",
+         {"s.json", "objects[1].transform", "'left' and 'right' start inside each other", "move them apart"}},
+        {"overlapping start (simulate)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "simulate s.json",
+         {"s.json", "'left' and 'right' start inside each other"}},
+    });
+    // Apart, or not colliding with each other, the same objects run.
+    test::TempDir dir("e2e_overlap_ok");
+    std::ofstream(dir.path() / "apart.json") << pair(0.7, R"({"objects": true})");
+    std::ofstream(dir.path() / "through.json") << pair(0.4, R"({"objects": false})");
+    for (const char* name : {"apart.json", "through.json"}) {
+        const Run r = runDgvIn(dir.path(), std::string("-q simulate ") + name + " --out o_" + name);
+        INFO(name << ": " << r.err);
+        CHECK(r.exitCode == 0);
+    }
+}
+
+TEST_CASE("e2e: bad meshes exit 2 with one line and write nothing", "[e2e][badinput][slow][sanitize]") {
     const std::string offBadIndex = "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 7\n";
     checkCases("e2e_bad_mesh", {
         {"missing mesh file", {{"s.json", meshScene("missing.obj")}}, "render s.json",
@@ -184,7 +212,7 @@ TEST_CASE("e2e: imgdiff on a missing or non-PNG file exits 2 with one line", "[e
     });
 }
 
-TEST_CASE("e2e: bad command-line options exit 2 with one line and write nothing", "[e2e][badinput]") {
+TEST_CASE("e2e: bad command-line options exit 2 with one line and write nothing", "[e2e][badinput][slow]") {
     const std::string scene = sphereScene("");
     const std::string s = "s.json";
     checkCases("e2e_bad_cli", {

@@ -279,6 +279,33 @@ TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]
           "line 1: not a PLY file: the first line must be 'ply'");
 }
 
+TEST_CASE("mesh_import: inside-out parts are turned around, each part on its own", "[io]") {
+    test::TempDir dir("mesh-import-orient");
+    // Two unit cubes: the first wound inside out, the second (moved by 3 in x) outward.
+    std::string two = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                      "v 3 0 0\nv 4 0 0\nv 4 1 0\nv 3 1 0\nv 3 0 1\nv 4 0 1\nv 4 1 1\nv 3 1 1\n"
+                      "f 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n"
+                      "f 9 12 11 10\nf 13 14 15 16\nf 9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\nf 12 9 13 16\n";
+    MeshImportReport report;
+    const TriangleMesh m = import(write(dir.path(), "two.obj", two), "", &report);
+    CHECK(report.orientation.parts == 2);
+    CHECK(report.orientation.flippedParts == 1);
+    CHECK(report.orientation.volumeBefore == Approx(0.0).margin(1e-12));  // -1 + 1
+    const MeshReport r = analyseMesh(m);
+    CHECK(r.closed);
+    CHECK(r.manifold);
+    CHECK(r.signedVolume == Approx(2.0).epsilon(1e-12));
+    // An outward mesh is left as it is.
+    const TriangleMesh cube = import(write(dir.path(), "cube.obj", kCubeObj), "", &report);
+    CHECK(report.orientation.flippedParts == 0);
+    CHECK(analyseMesh(cube).signedVolume == Approx(1.0).epsilon(1e-12));
+    // assimp's OFF/Wuson.off is wound inside out (signed volume about -1.1): it comes in outward.
+    const TriangleMesh wuson = import(kModels / "OFF/Wuson.off", "", &report);
+    CHECK(report.orientation.volumeBefore < -1);
+    CHECK(report.orientation.flippedParts >= 1);
+    CHECK(analyseMesh(wuson).signedVolume > 1);
+}
+
 TEST_CASE("mesh_import: real models from assimp's test set", "[io]") {
     MeshImportReport report;
     const TriangleMesh duck = import(kModels / "Collada/duck.dae", "", &report);
