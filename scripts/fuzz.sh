@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Fuzzes the parsers with libFuzzer (clang, AddressSanitizer + UndefinedBehaviorSanitizer):
-# the scene parser, the curve reader, mesh import and the state checkpoint reader. Installs
-# clang and its runtime if missing, builds in build-fuzz/ (DGV_FUZZ_JOBS parallel jobs, default
-# all cores), then runs each target from its seed corpus tests/fuzz/corpus/<target>/ (copied:
-# the committed corpus is never modified).
+# the scene parser, the curve reader, mesh import and the state checkpoint reader. Builds the
+# fuzz targets in the sanitizer build build-san/ (scripts/sanitize-build.sh, which installs
+# clang if missing), then runs each target from its seed corpus tests/fuzz/corpus/<target>/
+# (copied: the committed corpus is never modified).
 # Usage: scripts/fuzz.sh [SECONDS|ci] [TARGET ...]     TARGET: scene curve mesh state (default: all)
 #   SECONDS (default 60): explore for that long per target with a random seed, growing the
-#           corpus kept in build-fuzz/fuzz-work/<target>/corpus between runs.
+#           corpus kept in build-san/fuzz-work/<target>/corpus between runs.
 #   ci:     the reproducible gate CI runs: a fixed seed, a fixed number of inputs per target
 #           (about a minute each on 2 cores) from a fresh copy of the seeds, so every machine
 #           tries the same inputs and a pass here is a pass there.
@@ -24,14 +24,10 @@ declare -A ci_runs=([scene]=300000 [curve]=1000000 [mesh]=6000 [state]=500000)
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] || targets=(scene curve mesh state)
 
-scripts/install-deps.sh --fuzz
-build=${DGV_FUZZ_BUILD_DIR:-build-fuzz}
-if [[ ! -f "$build/CMakeCache.txt" ]]; then
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-    -DDGV_FUZZ=ON -DDGV_BUILD_TESTS=OFF -DDGV_SANITIZE=address,undefined,fuzzer-no-link
-fi
-cmake --build "$build" --parallel "${DGV_FUZZ_JOBS:-$(nproc)}" --target $(printf 'fuzz_%s ' "${targets[@]}")
+# The sanitizer build (scripts/sanitize-build.sh: clang, ASan + UBSan, coverage instrumentation)
+# that the sanitized test suite shares.
+build=${DGV_SAN_BUILD_DIR:-build-san}
+scripts/sanitize-build.sh $(printf 'fuzz_%s ' "${targets[@]}")
 
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1

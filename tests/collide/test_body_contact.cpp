@@ -81,7 +81,7 @@ void writeBlobs(const std::filesystem::path& dir, const std::string& collision) 
 }  // namespace
 
 TEST_CASE("body contact: two jelly balls thrown at each other squash, bounce apart and never interpenetrate",
-          "[collide][body][e2e]") {
+          "[collide][body][e2e][slow]") {
     test::TempDir dir("blobs");
     // Without contact between objects they pass through each other: kinetic energy unchanged.
     writeBlobs(dir.path(), R"({ "objects": false })");
@@ -122,7 +122,7 @@ TEST_CASE("body contact: two jelly balls thrown at each other squash, bounce apa
     }
 }
 
-TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over its momentum", "[collide][body][sim]") {
+TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over its momentum", "[collide][body][sim][slow]") {
     // A 4-voxel ball at 1.5 m/s into a resting 7-voxel ball (6.3 times its mass), no forces.
     // The two meet where both are going (predicted positions), each pushes its own points out
     // of the other, and the pair's momentum is then put right as a whole (one velocity shift):
@@ -187,8 +187,8 @@ TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over i
     }
 }
 
-TEST_CASE("body contact: a jelly dropped off-centre onto a resting one bounces off and rolls away; the struck one rolls off the other way",
-          "[collide][body][sim]") {
+TEST_CASE("body contact: a jelly dropped off-centre onto a resting one bounces off and rolls away, the struck one rolls off the other way",
+          "[collide][body][sim][slow]") {
     // A 0.25 m ball dropped from 1.1 m onto a 0.3 m one resting on the ground, 8 cm off its axis
     // (k = 3000/s², damping 2/s, friction 0.5; docs/math.md, "Friction acts on the patch's
     // slip"). With the friction on the centre instead of the contact patch's slip the upper ball

@@ -60,7 +60,7 @@ Mat3 along(const PointConnection& g, const Vec3& v) {
 }  // namespace
 
 TEST_CASE("connection: dGamma from eps (eq 52) matches Gamma(deformed) - Gamma(rest) at 2nd order",
-          "[deform]") {
+          "[deform][slow]") {
     const Vec3i cells(16, 8, 8);
     const Vec3 centre(8, 4, 4);
     struct Case {

@@ -54,7 +54,7 @@ TEST_CASE("displacement: eps round trip and affine maps are exact", "[deform]") 
     }
 }
 
-TEST_CASE("displacement: eqs 37-38 hold exactly on the lattice; eps_{;a} is eq 11 at 2nd order",
+TEST_CASE("displacement: eqs 37-38 hold exactly on the lattice, the covariant derivative of eps is eq 11 at 2nd order",
           "[deform]") {
     // M from eps with the discrete covariant derivative of displacement.hpp: the deformed
     // tangents X_a = sum_c M(a, c) x_c and metric gbar = M g M^T equal those computed from the

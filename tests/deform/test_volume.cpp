@@ -77,7 +77,7 @@ TEST_CASE("volume: rest cells, affine maps, totals", "[deform][volume]") {
     CHECK(totalVolume(cells, x) == Approx(A.determinant() * cells.size()).epsilon(1e-13));
 }
 
-TEST_CASE("volume: exact for a nonlinear trilinear cell; gradient", "[deform][volume]") {
+TEST_CASE("volume: exact for a nonlinear trilinear cell, gradient", "[deform][volume]") {
     std::mt19937_64 rng(9);
     std::uniform_real_distribution<Real> u(-0.3, 0.3);
     for (int t = 0; t < 50; ++t) {
@@ -468,7 +468,7 @@ TEST_CASE("volume: weighted by inverse masses with sliding contact points, the p
     for (Index q = 0; q < n; ++q) REQUIRE(x[q] == z[q]);
 }
 
-TEST_CASE("volume: the last calls' multipliers predict the next call's; a prediction that does not help changes "
+TEST_CASE("volume: the last calls' multipliers predict the next call's, a prediction that does not help changes "
           "nothing",
           "[deform][volume]") {
     // A dynamics-like sequence: each call corrects the volume change of the same smooth

@@ -122,7 +122,7 @@ TEST_CASE("affine contact: without contacts nothing moves", "[dynamics][contact]
     CHECK(dA.norm() == 0);
 }
 
-TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it; without the response it folds",
+TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it, without the response it folds",
           "[dynamics][contact]") {
     const Lattice lat = test::sphereLattice(5, 0.05, Vec3(0, 0.35, 0) - Vec3::Constant(5 * 0.05));
     const ForceField g = test::gravityField();
@@ -175,8 +175,8 @@ TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it; wi
     CHECK_FALSE(without.fault.empty());
 }
 
-TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twist small; without it the twist winds up",
-          "[dynamics][contact]") {
+TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twist small, without it the twist winds up",
+          "[dynamics][contact][slow]") {
     // A jelly ball set down on the ground at rest under gravity (docs/math.md, "Twist
     // anti-windup in contact"). The shape memory asks to un-flatten the contact patch every
     // step and the collider and the volume projection refuse it; without the anti-windup the
@@ -242,8 +242,8 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
     CHECK(off.limited > 0);
 }
 
-TEST_CASE("contact: a jelly resting on a frictionless ground stays where it is; with friction it settles",
-          "[dynamics][contact]") {
+TEST_CASE("contact: a jelly resting on a frictionless ground stays where it is, with friction it settles",
+          "[dynamics][contact][slow]") {
     // A lopsided voxel ball (its centre off the grid, as a voxelised mesh is) set down on the
     // ground under gravity, k = 300/s², damping 2/s (docs/math.md, "Contact points slide in the
     // volume projection"). The volume projection restores the cells the contact squeezes; held
@@ -476,7 +476,7 @@ TEST_CASE("contact: a jelly spinning like a top on a rough ground stops turning"
     CHECK(late < 0.01 * start);
 }
 
-TEST_CASE("contact: a goo ball resting on the ground spreads without crushing its bottom layer", "[dynamics][contact]") {
+TEST_CASE("contact: a goo ball resting on the ground spreads without crushing its bottom layer", "[dynamics][contact][slow]") {
     // The ball of `contact_ball` (0.5 m, 20 voxels across, goo: no shape memory) dropped at
     // 1.5 m/s onto the ground, 2 substeps at 24 fps (docs/math.md, "Goo resting on the
     // ground"). Goo spreads on without end on its flat bottom facet; the affine lift puts the

@@ -135,7 +135,7 @@ TEST_CASE("load modes: a pinned jelly bar sags under gravity to the modal closed
     CHECK(maxErr <= 1e-4);
 }
 
-TEST_CASE("load modes: a jelly box held by its bottom face carries its weight without folding", "[dynamics][load]") {
+TEST_CASE("load modes: a jelly box held by its bottom face carries its weight without folding", "[dynamics][load][slow]") {
     const Real k = GENERATE(Real(100), Real(300), Real(1000));
     const Lattice lat = boxLattice(Vec3i(9, 9, 9), 0.05, Vec3(-0.2, 0, -0.2));
     std::vector<unsigned char> pinned(at(lat.size()), 0);

@@ -73,7 +73,7 @@ Stretch stretchAndRelease(Real rate, Real yield) {
 
 }  // namespace
 
-TEST_CASE("plasticity: a stretch beyond the yield leaves the excess as a permanent set; within it the body springs back",
+TEST_CASE("plasticity: a stretch beyond the yield leaves the excess as a permanent set, within it the body springs back",
           "[dynamics][plastic]") {
     const Real yield = 0.1;
     // Beyond: the elastic strain is capped at the yield while the stretch grows, so at the peak
@@ -102,7 +102,7 @@ TEST_CASE("plasticity: a stretch beyond the yield leaves the excess as a permane
     CHECK(elastic.final < 1e-3);
 }
 
-TEST_CASE("plasticity: the twist's rest connection yields; a bent-in shape stays", "[dynamics][plastic]") {
+TEST_CASE("plasticity: the twist's rest connection yields, a bent-in shape stays", "[dynamics][plastic]") {
     // A box bar 12 x 4 x 4 voxels with k = 100, given a non-affine push: a δΓ that bends it
     // (Γ^1_00 = β x_1-ward curvature at every point). Elastic: Γ returns to ~0. Plastic: a
     // permanent Γ stays, and at rest no point holds more than the yield elastically.
@@ -142,7 +142,7 @@ TEST_CASE("plasticity: the twist's rest connection yields; a bent-in shape stays
     CHECK(ePlastic <= tau * (1 + 1e-9));
 }
 
-TEST_CASE("plasticity: a putty ball dropped on the ground keeps a squash and settles; goo spreads on", "[dynamics][plastic][contact]") {
+TEST_CASE("plasticity: a putty ball dropped on the ground keeps a squash and settles, goo spreads on", "[dynamics][plastic][contact][slow]") {
     // The ball of "contact: a goo ball resting on the ground ..." (0.5 m, 20 voxels across,
     // 1.5 m/s onto the ground, 2 substeps at 24 fps, 5 s), as goo, as jelly (k = 300: its
     // resting sag needs an elastic strain of about 0.27) and as putty (k = 300, yield 0.25). The

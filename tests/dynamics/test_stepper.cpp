@@ -226,7 +226,7 @@ PushRun pushThenCoast(const DynamicsSettings& set, Real push, int steps) {
 }
 }  // namespace
 
-TEST_CASE("stepper: 10000 force-free steps after a strong push stay bounded", "[dynamics][stepper]") {
+TEST_CASE("stepper: 10000 force-free steps after a strong push stay bounded", "[dynamics][stepper][slow]") {
     // Goo with the default damping (1/s): δΓ decays as exp(-ζ t) times the twist's transport
     // E = F⁻¹ D⁺ F, whose stretch part only damps. Once the flex has settled (S = 1, E = 1)
     // Σ|δΓ|² falls at least as exp(-2ζ t). Before, while the body still stretches, E of the

@@ -71,7 +71,7 @@ std::vector<Vec3> nonAffine(const std::vector<Vec3>& x, const std::vector<Vec3>&
 // frame 720 (it then shakes itself apart). The notes' rotation of δΓ (R(−2θ) in eq 76), which
 // grew the twist ×2,000 within 4 s on the tree's frames (taken before as its own defect), stays
 // bounded too once the frames are swept.
-TEST_CASE("stepper: a stiff spinning jelly keeps its twist bounded in free flight", "[dynamics][stepper][long]") {
+TEST_CASE("stepper: a stiff spinning jelly keeps its twist bounded in free flight", "[dynamics][stepper][long][slow]") {
     const Real h = 0.0625;
     const Lattice lat = ball(8, h, Vec3(-0.2, 0, 0));
     ForceField field;

@@ -191,7 +191,7 @@ TEST_CASE("e2e: a moving scene's run cut after frame 4 resumes from its state ch
     checkNoTemporaries(part);
 }
 
-TEST_CASE("e2e: a moving scene's render killed by SIGKILL resumes to the same bytes", "[e2e][resume][faults]") {
+TEST_CASE("e2e: a moving scene's render killed by SIGKILL resumes to the same bytes", "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_ckpt_kill");
     writeDropScene(dir.path(), false);
     REQUIRE(runDgvIn(dir.path(), "-q render drop.json --out full").exitCode == 0);
@@ -246,7 +246,7 @@ TEST_CASE("e2e: simulate --resume after SIGKILL gives the same stats.csv and VDB
 }
 
 TEST_CASE("e2e: render --frames A-B of a moving scene starts from the checkpoint and equals a full render",
-          "[e2e][resume]") {
+          "[e2e][resume][slow]") {
     test::TempDir dir("e2e_ckpt_range");
     writeDropScene(dir.path(), false);
     REQUIRE(runDgvIn(dir.path(), "-q render drop.json --out full").exitCode == 0);
@@ -270,7 +270,7 @@ TEST_CASE("e2e: render --frames A-B of a moving scene starts from the checkpoint
 }
 
 TEST_CASE("e2e: checkpoints of another scene, corrupt ones and foreign files are skipped with a warning",
-          "[e2e][resume][faults]") {
+          "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_ckpt_foreign");
     writeDropScene(dir.path(), false);
     REQUIRE(runDgvIn(dir.path(), "-q simulate drop.json --out full").exitCode == 0);

@@ -103,7 +103,7 @@ TEST_CASE("pin: a vertex group holds the material points that carry its vertices
     CHECK(moved() < peak);
 }
 
-TEST_CASE("e2e: a pin's vertex group is read from the mesh file's groups; an unknown one exits 2 naming them",
+TEST_CASE("e2e: a pin's vertex group is read from the mesh file's groups, an unknown one exits 2 naming them",
           "[e2e][pin]") {
     test::TempDir dir("pin_group_e2e");
     std::ofstream(dir.path() / "column.obj") << kColumnObj;

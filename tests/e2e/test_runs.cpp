@@ -84,7 +84,7 @@ TEST_CASE("e2e: a full disk fails the frame being written and leaves no partial 
     CHECK(namesIn(dir.path() / "out").empty());  // no frame, no temporary
 }
 
-TEST_CASE("e2e: renders are byte-identical for 1 and 2 threads", "[e2e][determinism]") {
+TEST_CASE("e2e: renders are byte-identical for 1 and 2 threads", "[e2e][determinism][slow]") {
     // --threads sets TBB's global_control (voxelising, the lattice and embedding: parallelFor /
     // parallelReduce); LP_NUM_THREADS sets Mesa llvmpipe's rasteriser threads.
     test::TempDir dir("e2e_threads");
@@ -104,7 +104,7 @@ TEST_CASE("e2e: renders are byte-identical for 1 and 2 threads", "[e2e][determin
     }
 }
 
-TEST_CASE("e2e: --resume re-renders exactly the missing, truncated and foreign frames", "[e2e][resume]") {
+TEST_CASE("e2e: --resume re-renders exactly the missing, truncated and foreign frames", "[e2e][resume][slow]") {
     test::TempDir dir("e2e_resume");
     writeScene(dir.path(), 4);
     REQUIRE(runDgvIn(dir.path(), "-q render small.json --out full").exitCode == 0);
@@ -140,7 +140,7 @@ TEST_CASE("e2e: --resume re-renders exactly the missing, truncated and foreign f
 }
 
 TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume finishes it byte-identically",
-          "[e2e][resume][faults]") {
+          "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_kill");
     const int frames = 24;
     writeScene(dir.path(), frames);

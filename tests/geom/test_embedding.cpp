@@ -102,7 +102,7 @@ TEST_CASE("embedding: a vertex far outside the grid still finds its anchor", "[g
     }
 }
 
-TEST_CASE("embedding: rest positions reproduced; affine motions and rotations exact", "[geom]") {
+TEST_CASE("embedding: rest positions reproduced, affine motions and rotations exact", "[geom]") {
     const Lattice lat = ballLattice(0.1);
     std::vector<Vec3> verts = sampleVertices(1.0, 500);
     const std::vector<Vec3> outside = sampleVertices(1.18, 300);

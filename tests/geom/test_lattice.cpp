@@ -214,7 +214,7 @@ TEST_CASE("lattice: empty mask and empty grid", "[geom]") {
     REQUIRE(none.size() == 0);
 }
 
-TEST_CASE("lattice: loose points (in no complete cell) leave; a sheet with no cell stays whole", "[geom]") {
+TEST_CASE("lattice: loose points (in no complete cell) leave, a sheet with no cell stays whole", "[geom]") {
     // A 3x3x3 block with a one-voxel fin sticking out of its top face (two points up from its
     // centre), a pole tip on its side, and, apart, a 4x4 one-voxel-thin sheet.
     const Vec3i dims(12, 8, 5);

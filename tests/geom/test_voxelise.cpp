@@ -91,7 +91,7 @@ TEST_CASE("voxelise: winding number is 1 inside and 0 outside a closed mesh", "[
     CHECK(worstFast < 1e-3);
 }
 
-TEST_CASE("voxelise: the lattice is the set of grid points with winding number >= 1/2", "[geom]") {
+TEST_CASE("voxelise: the lattice is the set of grid points with winding number >= 1/2", "[geom][slow]") {
     SECTION("sphere") {
         const TriangleMesh m = makeSphere(1.0, 40, 20);
         requireMatchesWindingNumber(m, voxelise(m, atResolution(20)));
@@ -134,7 +134,7 @@ TEST_CASE("voxelise: placement is centred on the bounds with one empty cell of p
     CHECK(report.components == 1);
 }
 
-TEST_CASE("voxelise: voxel volume converges to the analytic volume at first order", "[geom]") {
+TEST_CASE("voxelise: voxel volume converges to the analytic volume at first order", "[geom][slow]") {
     SECTION("sphere") {
         const TriangleMesh m = makeSphere(1.0, 256, 128);
         const Real exact = 4.0 / 3 * kPi;

@@ -142,7 +142,7 @@ TEST_CASE("levelset collider: distance and gradient of a moved sphere match the 
     CHECK(phi(C + Vec3(0, 20, 0), nullptr) > 15);
 }
 
-TEST_CASE("levelset collider: the first level set is the default grid; its mesh is the sphere", "[io][vdb][levelset]") {
+TEST_CASE("levelset collider: the first level set is the default grid, its mesh is the sphere", "[io][vdb][levelset]") {
     test::TempDir dir("levelset-default");
     const float R = 0.4f, h = 0.025f;
     openvdb::initialize();

@@ -57,7 +57,7 @@ std::size_t filesIn(const fs::path& dir) {
 
 }  // namespace
 
-TEST_CASE("png: 8- and 16-bit round trips are exact; tEXt comes back", "[io]") {
+TEST_CASE("png: 8- and 16-bit round trips are exact, tEXt comes back", "[io]") {
     test::FpTrapsOff guard;
     test::TempDir dir("png-roundtrip");
     const std::vector<std::pair<std::string, std::string>> text = {{"Software", "dgv 0.1"}, {"dgv:frame", "12"}};

@@ -126,7 +126,7 @@ bool highlighted(const Image& img, int x, int y) {
 
 }  // namespace
 
-TEST_CASE("contact highlight: a ball pushed onto the ground shows R at the bottom only", "[render][contact][e2e]") {
+TEST_CASE("contact highlight: a ball pushed onto the ground shows R at the bottom only", "[render][contact][e2e][slow]") {
     test::TempDir dir("contact_ball");
     const int frames = 6;
     writeBallScene(dir.path(), R"({ "mode": "depth", "low": [0, 1, 0], "high": [0, 1, 0.5] })", frames);
@@ -360,7 +360,7 @@ void writeLoopScene(const std::filesystem::path& dir, const std::string& overlay
 
 }  // namespace
 
-TEST_CASE("overlays: render.overlays.gln_loops draws the rings of the contact set", "[render][overlay][e2e]") {
+TEST_CASE("overlays: render.overlays.gln_loops draws the rings of the contact set", "[render][overlay][e2e][slow]") {
     test::TempDir dir("gln_loops");
     writeLoopScene(dir.path(), R"({ "gln_loops": true, "gln_color": [0, 1, 0], "line_width": 2 })", 6);
     REQUIRE(e2e::runDgvIn(dir.path(), "-q render ball.json --out on --frames 6").exitCode == 0);

@@ -284,7 +284,7 @@ TEST_CASE("golden: rendering the same scene twice gives identical PNG bytes", "[
     }
 }
 
-TEST_CASE("renderer: crease normals keep a box's faces flat; 180 degrees rounds its edges", "[render]") {
+TEST_CASE("renderer: crease normals keep a box's faces flat, 180 degrees rounds its edges", "[render]") {
     test::FpTrapsOff guard;
     FrameScene scene;
     scene.meshes.push_back(test::box(Vec3::Zero(), Vec3(2, 2, 2), 4));

@@ -170,7 +170,7 @@ TEST_CASE("renderer: the object appears where the camera projects it", "[render]
     }
 }
 
-TEST_CASE("renderer: the same input gives identical pixels; a moved object changes them", "[render][determinism]") {
+TEST_CASE("renderer: the same input gives identical pixels, a moved object changes them", "[render][determinism]") {
     test::FpTrapsOff guard;
     RenderSettings settings = smallSettings();
     Renderer renderer(settings);

@@ -64,8 +64,8 @@ std::vector<Real> rhs(Index rows, int cols, int used) {
 
 }  // namespace
 
-TEST_CASE("multigrid: the float V-cycle keeps CG's iterations and accuracy; unit rows and a zero "
-          "4th column change no bit; threads change no bit",
+TEST_CASE("multigrid: the float V-cycle keeps CG's iterations and accuracy, unit rows and a zero "
+          "4th column change no bit, threads change no bit",
           "[solve]") {
     std::vector<Vec3i> coords;
     const SparseRows A = ballLaplacian(14, coords);  // ~11k rows: many parallel blocks

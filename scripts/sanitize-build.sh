@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Configures (once) and builds the sanitizer build in build-san/: clang, RelWithDebInfo,
+# AddressSanitizer + UndefinedBehaviorSanitizer and libFuzzer's coverage instrumentation
+# (fuzzer-no-link), with the test suite and the fuzz targets. One build serves both
+# scripts/test-sanitize.sh and scripts/fuzz.sh, so CI compiles the sanitized code once.
+# Installs what is missing first (clang and its runtime included).
+# Usage: scripts/sanitize-build.sh [TARGET ...]     (default: every target)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install-deps.sh --tests --fuzz
+build=${DGV_SAN_BUILD_DIR:-build-san}
+if [[ ! -f "$build/CMakeCache.txt" ]]; then
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+    -DDGV_FUZZ=ON -DDGV_SANITIZE=address,undefined,fuzzer-no-link
+fi
+targets=()
+[[ $# -gt 0 ]] && targets=(--target "$@")
+cmake --build "$build" --parallel "${DGV_SAN_JOBS:-$(nproc)}" "${targets[@]}"
