@@ -137,9 +137,9 @@ TEST_CASE("surface check: a surface folded over is flipped, a squashed one is no
     // Folds on a few triangles (specks below what shows) pass; a tear never does.
     SurfaceCheck specks;
     specks.triangles = 1000;
-    specks.flippedTriangles = 5;
+    specks.flippedTriangles = 20;
     CHECK(specks.ok());
-    specks.flippedTriangles = 6;
+    specks.flippedTriangles = 21;
     CHECK_FALSE(specks.ok());
     specks.flippedTriangles = 0;
     specks.tornEdges = 1;
