@@ -727,9 +727,10 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     std::fill(mContact.begin(), mContact.end(), 0);
     std::fill(mContactDepth.begin(), mContactDepth.end(), Real(0));
     // The points that respond, per collider: the GLN network's R (eqs 90-91, collide/gln_network)
-    // or, without a detector, the points inside that collider. (Until 2026-11-28 every point
-    // inside SOME collider responded to each: a body touching only another body then counted as
-    // touching the ground too, and its pair's momentum was not put right.)
+    // or, without a detector, the points inside that collider. Only that collider's points respond
+    // to it: were every point inside some collider to respond to each, a body touching only
+    // another body would count as touching the ground too, and its pair's momentum would not be
+    // put right.
     std::vector<std::vector<unsigned char>> responds(colliders.size());
     // The responding collider whose surface is nearest to x (least φ/|∇φ|; negative: inside):
     // its index (-1 if none with a gradient), that distance and its unit normal.

@@ -1,5 +1,5 @@
 # Checks every #include "module/..." in src/ and render/ against the dependency table of
-# docs/conventions.md (from DESIGN.md), and that third-party headers stay out of dgv's headers
+# docs/conventions.md, and that third-party headers stay out of dgv's headers
 # outside base/. Run: cmake -DROOT=<source dir> -P check_includes.cmake
 cmake_policy(SET CMP0057 NEW)  # IN_LIST
 set(allowed_base     "base")
