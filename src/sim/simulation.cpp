@@ -453,7 +453,9 @@ FrameStats Simulation::advanceTo(int frame) {
     // decision is a function of the state, so a resumed run retries the same way.
     int sub = frameSubsteps(frame);
     const int firstSub = sub;
-    const int cap = std::max(sub, kRetrySubstepFactor * std::max(mScene.substeps, mScene.maxSubsteps));
+    // A fixed count (max_substeps = substeps) stays fixed: such a frame fails without a retry.
+    const int most = std::max(mScene.substeps, mScene.maxSubsteps);
+    const int cap = most > mScene.substeps ? std::max(sub, kRetrySubstepFactor * most) : sub;
     const std::vector<ObjectState> start = saveState();
     std::string first;  // the first attempt's fault
     for (;;) {

@@ -75,7 +75,8 @@ public:
     /// Simulates frame `frame` (must be the frame after the last one; the first call's frame
     /// must be frames.start + 1) at frameSubsteps() substeps. A frame that faults or whose
     /// surface fails the check (setSurface) is simulated again from the frame's start at twice
-    /// the substeps, up to kRetrySubstepFactor × max_substeps (docs/math.md, "Never a torn
+    /// the substeps, up to kRetrySubstepFactor × max_substeps (not when the count is fixed,
+    /// max_substeps = substeps; docs/math.md, "Never a torn
     /// frame"). Throws RuntimeError naming the frame, substep, object and fault when that still
     /// fails (the lattice folds, the affine part inverts, a position becomes non-finite, the
     /// surface flips or tears); the state is then the frame's start.

@@ -134,9 +134,10 @@ TEST_CASE("e2e: objects that start inside each other exit 2 naming both, and wri
           "render": {"width": 32, "height": 32, "supersample": 1}})";
     };
     checkCases("e2e_bad_overlap", {
-        {"overlapping start (render)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "render s.json",
+        // -q: the objects are built (and described on stderr) before the overlap can be measured
+        {"overlapping start (render)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "-q render s.json",
          {"s.json", "objects[1].transform", "'left' and 'right' start inside each other", "move them apart"}},
-        {"overlapping start (simulate)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "simulate s.json",
+        {"overlapping start (simulate)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "-q simulate s.json",
          {"s.json", "'left' and 'right' start inside each other"}},
     });
     // Apart, or not colliding with each other, the same objects run.
