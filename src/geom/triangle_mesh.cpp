@@ -138,11 +138,22 @@ OrientReport orientOutward(TriangleMesh& mesh) {
         const Vec3 d = mesh.vertices[static_cast<std::size_t>(t[2])] - c;
         volume[triPart[i]] += a.dot(b.cross(d)) / 6;
     }
+    // A negative part inside the bounds of an outward one is a cavity (a hollow ball's inner
+    // shell, wound inward on purpose): it stays as it is.
     report.parts = bounds.size();
-    for (Real v : volume) report.flippedParts += v < 0 ? 1 : 0;
+    std::vector<unsigned char> turn(bounds.size(), 0);
+    for (std::size_t p = 0; p < bounds.size(); ++p) {
+        if (!(volume[p] < 0)) continue;
+        bool cavity = false;
+        for (std::size_t q = 0; q < bounds.size() && !cavity; ++q)
+            cavity = q != p && volume[q] > 0 && (bounds[q].min.array() <= bounds[p].min.array()).all() &&
+                     (bounds[p].max.array() <= bounds[q].max.array()).all();
+        turn[p] = cavity ? 0 : 1;
+        report.flippedParts += turn[p];
+    }
     if (report.flippedParts > 0)
         for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
-            if (volume[triPart[i]] < 0) std::swap(mesh.triangles[i][1], mesh.triangles[i][2]);
+            if (turn[triPart[i]]) std::swap(mesh.triangles[i][1], mesh.triangles[i][2]);
     return report;
 }
 

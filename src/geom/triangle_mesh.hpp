@@ -61,7 +61,8 @@ struct OrientReport {
 
 /// Turns every connected part of the mesh whose signed volume (about the part's bounds centre,
 /// so that an open part does not depend on where the origin is) is negative: its triangles'
-/// winding is reversed so that normals point out. The winding number, which decides what is
+/// winding is reversed so that normals point out. A negative part within the bounds of an
+/// outward part is a cavity and stays. The winding number, which decides what is
 /// inside (geom/voxelise), integrates to the signed volume, so an inside-out part voxelises to
 /// nothing until turned. Deterministic; parts are found by shared vertex indices.
 OrientReport orientOutward(TriangleMesh& mesh);

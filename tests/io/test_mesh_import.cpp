@@ -295,6 +295,15 @@ TEST_CASE("mesh_import: inside-out parts are turned around, each part on its own
     CHECK(r.closed);
     CHECK(r.manifold);
     CHECK(r.signedVolume == Approx(2.0).epsilon(1e-12));
+    // A cavity (an inward cube inside an outward one) is left as it is: a hollow box.
+    std::string hollow = "v -1 -1 -1\nv 2 -1 -1\nv 2 2 -1\nv -1 2 -1\nv -1 -1 2\nv 2 -1 2\nv 2 2 2\nv -1 2 2\n"
+                         "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+                         "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                         "f 9 10 11 12\nf 13 16 15 14\nf 9 13 14 10\nf 10 14 15 11\nf 11 15 16 12\nf 12 16 13 9\n";
+    const TriangleMesh box = import(write(dir.path(), "hollow.obj", hollow), "", &report);
+    CHECK(report.orientation.parts == 2);
+    CHECK(report.orientation.flippedParts == 0);
+    CHECK(analyseMesh(box).signedVolume == Approx(27.0 - 1.0).epsilon(1e-12));
     // An outward mesh is left as it is.
     const TriangleMesh cube = import(write(dir.path(), "cube.obj", kCubeObj), "", &report);
     CHECK(report.orientation.flippedParts == 0);
