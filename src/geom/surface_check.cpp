@@ -37,13 +37,13 @@ Real longestEdge(const std::vector<Vec3>& v, const std::array<int, 3>& t) {
     return std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
 }
 
+/// The edge pass's figures (the folds are counted from their own flags).
 struct Counts {
-    Index flipped = 0, torn = 0;
+    Index torn = 0;
     Real worst = 0;
 };
 
 Counts combine(Counts x, const Counts& y) {
-    x.flipped += y.flipped;
     x.torn += y.torn;
     x.worst = std::max(x.worst, y.worst);
     return x;

@@ -77,7 +77,7 @@ public:
     /// surface fails the check (setSurface) is simulated again from the frame's start at twice
     /// the substeps, up to kRetrySubstepFactor × max_substeps (not when the count is fixed,
     /// max_substeps = substeps; docs/math.md, "Never a torn
-    /// frame"). Throws RuntimeError naming the frame, substep, object and fault when that still
+    /// frame"). Throws NumericalError naming the frame, substep, object and fault when that still
     /// fails (the lattice folds, the affine part inverts, a position becomes non-finite, the
     /// surface flips or tears); the state is then the frame's start.
     FrameStats advanceTo(int frame);
