@@ -141,9 +141,11 @@ void checkOffFile(const fs::path& path) {
 /// PLY headers are validated before assimp sees the file: assimp 5.2's PLY reader loops forever
 /// on a header without `end_header` (found by fuzzing: tests/fuzz/corpus/mesh). Checked, for
 /// files with the `ply` magic or a .ply extension: the magic, a `format` line naming one of the
-/// three encodings, version 1.0; then only `comment`, `obj_info`, `element NAME COUNT` and
-/// `property TYPE NAME` / `property list TYPE TYPE NAME` lines (a property after an element,
-/// known scalar types, counts that fit the file) up to `end_header`.
+/// three encodings, version 1.0; then `element NAME COUNT` and `property TYPE NAME` /
+/// `property list TYPE TYPE NAME` lines (a property after an element, known scalar types, counts
+/// that fit the file) up to `end_header`. Other lines that start with a letter (`comment`,
+/// `obj_info`, Blender 2.4's `Created by Blender ...`) are skipped as assimp skips them; a line
+/// that starts with a digit or other non-letter is refused (the data began without `end_header`).
 void checkPlyHeader(const fs::path& path) {
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
@@ -194,7 +196,6 @@ void checkPlyHeader(const fs::path& path) {
         if (words.empty()) continue;
         const std::string& key = words[0];
         if (key == "end_header") break;
-        if (key == "comment" || key == "obj_info") continue;
         if (key == "element") {
             if (words.size() != 3) fail("expected 'element NAME COUNT'");
             const std::string& c = words[2];
@@ -214,7 +215,7 @@ void checkPlyHeader(const fs::path& path) {
                 if (words.size() != 3) fail("expected 'property TYPE NAME'");
                 type(words[1]);
             }
-        } else {
+        } else if (!std::isalpha(static_cast<unsigned char>(key[0]))) {
             fail("unexpected '" + key + "' in the PLY header (expected element, property, comment or end_header)");
         }
     }
