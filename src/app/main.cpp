@@ -96,6 +96,9 @@ int main(int argc, char** argv) {
     cli.add_option("--progress", progress, "Progress display: auto, bar or log")
         ->check(CLI::IsMember({"auto", "bar", "log"}));
     cli.require_subcommand(0, 1);
+    // The global options are also taken after the subcommand ("dgv render x.json --threads 1"):
+    // what a subcommand does not know falls through to here. Subcommands inherit the setting.
+    cli.fallthrough();
 
     app::RenderOptions render;
     auto* cRender = cli.add_subcommand("render", "Render a scene to a PNG sequence <out>/<name>.####.png");

@@ -11,6 +11,8 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 using namespace dgv;
 namespace fs = std::filesystem;
@@ -65,6 +67,34 @@ TEST_CASE("cli: bad usage exits 2 with one line", "[app][cli]") {
         CHECK(r.exitCode == 2);
         CHECK(lineCount(r.output) == 1);
     }
+}
+
+TEST_CASE("cli: global options are taken before or after the subcommand", "[app][cli][render]") {
+    test::TempDir dir("cli_global_options");
+    const fs::path scene = writeSmallScene(dir.path());
+    const std::vector<std::pair<std::string, std::string>> runs = {
+        {"a", "--threads 1 -q --progress log render " + q(scene) + " --frames 1 --out " + q(dir.path() / "a")},
+        {"b", "render " + q(scene) + " --frames 1 --out " + q(dir.path() / "b") + " --threads 1 -q --progress log"},
+        {"c", "render --threads 1 " + q(scene) + " -q --frames 1 --progress=log --out " + q(dir.path() / "c")}};
+    for (const auto& [out, args] : runs) {
+        INFO(args);
+        auto r = test::runDgv(args);
+        CHECK(r.exitCode == 0);
+        CHECK(r.output.empty());  // -q took effect
+        CHECK(fs::exists(dir.path() / out / "small.0001.png"));
+    }
+    // --progress after the subcommand takes effect: a bar even though the output is a pipe.
+    auto bar = test::runDgv("render " + q(scene) + " --frames 1 --out " + q(dir.path() / "d") + " --progress bar");
+    CHECK(bar.exitCode == 0);
+    CHECK(bar.output.find('\r') != std::string::npos);
+    // Checked as before the subcommand.
+    auto bad = test::runDgv("render " + q(scene) + " --threads 5000");
+    CHECK(bad.exitCode == 2);
+    CHECK(lineCount(bad.output) == 1);
+    CHECK_THAT(bad.output, Catch::Contains("--threads"));
+    auto progress = test::runDgv("info x.obj --progress sometimes");
+    CHECK(progress.exitCode == 2);
+    CHECK_THAT(progress.output, Catch::Contains("--progress"));
 }
 
 TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cache", "[app][cli][dynamics]") {
