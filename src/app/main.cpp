@@ -10,6 +10,7 @@
 #include <tbb/global_control.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -75,6 +77,54 @@ std::string oneLine(const char* message) {
         }
     }
     return out;
+}
+
+/// Edit distance between a and b (insertions, deletions, substitutions and swaps of neighbours,
+/// each 1): "rendr" is 1 from "render", "ifno" 1 from "info".
+std::size_t editDistance(const std::string& a, const std::string& b) {
+    std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+    for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+    for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i)
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1])});
+            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+                d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+        }
+    return d[a.size()][b.size()];
+}
+
+/// The first word on the command line that is neither an option nor a global option's value,
+/// when it names no subcommand: the command the user mistyped; empty otherwise.
+std::string unknownCommand(CLI::App& cli, int argc, char** argv) {
+    for (int i = 1; i < argc; ++i) {
+        const std::string arg = argv[i];
+        if (arg.size() > 1 && arg[0] == '-') {
+            const CLI::Option* opt = cli.get_option_no_throw(arg);
+            if (opt && opt->get_items_expected_min() > 0) ++i;  // "--threads 2", not "--threads=2"
+            continue;
+        }
+        return cli.get_subcommands([&](CLI::App* sub) { return sub->check_name(arg); }).empty() ? arg : "";
+    }
+    return "";
+}
+
+/// "unknown command 'rendr' (did you mean 'render'?)", or the list of commands when none is
+/// close: within a third of the command's length (at least 1).
+std::string unknownCommandMessage(CLI::App& cli, const std::string& word) {
+    std::string best, all;
+    std::size_t bestDistance = std::string::npos;
+    for (const CLI::App* sub : cli.get_subcommands([](CLI::App*) { return true; })) {
+        const std::string& name = sub->get_name();
+        all += (all.empty() ? "" : ", ") + name;
+        const std::size_t d = editDistance(word, name);
+        if (d <= std::max<std::size_t>(1, name.size() / 3) && d < bestDistance) {
+            best = name;
+            bestDistance = d;
+        }
+    }
+    if (!best.empty()) return "unknown command '" + word + "' (did you mean '" + best + "'?)";
+    return "unknown command '" + word + "' (commands: " + all + "; see dgv --help)";
 }
 
 const char* kExitCodes =
@@ -172,6 +222,13 @@ int main(int argc, char** argv) {
         return cli.exit(e);
     } catch (const CLI::CallForVersion& e) {
         return cli.exit(e);
+    } catch (const CLI::ExtrasError& e) {
+        const std::string word = cli.get_subcommands().empty() ? unknownCommand(cli, argc, argv) : "";
+        if (!word.empty())
+            std::fprintf(stderr, "dgv: error: %s\n", oneLine(unknownCommandMessage(cli, word).c_str()).c_str());
+        else
+            std::fprintf(stderr, "dgv: %s (see dgv --help)\n", oneLine(e.what()).c_str());
+        return kExitBadInput;
     } catch (const CLI::ParseError& e) {
         std::fprintf(stderr, "dgv: %s (see dgv --help)\n", oneLine(e.what()).c_str());
         return kExitBadInput;

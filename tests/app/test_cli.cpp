@@ -69,6 +69,25 @@ TEST_CASE("cli: bad usage exits 2 with one line", "[app][cli]") {
     }
 }
 
+TEST_CASE("cli: a mistyped command is named with the nearest one", "[app][cli]") {
+    auto r = test::runDgv("rendr scenes/x.json");
+    CHECK(r.exitCode == 2);
+    CHECK(r.output == "dgv: error: unknown command 'rendr' (did you mean 'render'?)\n");
+    r = test::runDgv("--threads 2 -q simualte x.json");  // a global option's value is not the command
+    CHECK(r.exitCode == 2);
+    CHECK(r.output == "dgv: error: unknown command 'simualte' (did you mean 'simulate'?)\n");
+    r = test::runDgv("ifno a.obj");
+    CHECK(r.output == "dgv: error: unknown command 'ifno' (did you mean 'info'?)\n");
+    r = test::runDgv("frobnicate");
+    CHECK(r.exitCode == 2);
+    CHECK(r.output == "dgv: error: unknown command 'frobnicate' (commands: render, simulate, gln, imgdiff, info, "
+                      "bench; see dgv --help)\n");
+    // An extra argument after a known command keeps CLI11's message.
+    r = test::runDgv("info a.obj b.obj");
+    CHECK(r.exitCode == 2);
+    CHECK_THAT(r.output, Catch::Contains("b.obj") && !Catch::Contains("unknown command"));
+}
+
 TEST_CASE("cli: global options are taken before or after the subcommand", "[app][cli][render]") {
     test::TempDir dir("cli_global_options");
     const fs::path scene = writeSmallScene(dir.path());
