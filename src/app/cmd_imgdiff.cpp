@@ -19,7 +19,7 @@ int runImgdiff(const ImgdiffOptions& options) {
     s.maxFraction = options.maxFraction;
     s.hard = options.hard;
     ImageCompareResult r = compareImages(ref, cand, s);
-    std::printf("%s: %s\n", r.pass ? "PASS" : "FAIL", r.summary().c_str());
+    std::printf("%s\n", r.summary().c_str());  // "PASS: ..." or "FAIL: ..."
     if (!r.pass && !options.diffDir.empty() && !r.sizeMismatch) {
         namespace fs = std::filesystem;
         ensureDirectory(options.diffDir);
