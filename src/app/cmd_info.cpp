@@ -32,6 +32,7 @@ int runInfo(const InfoOptions& options) {
     const Vec3 size = m.bounds.size();
     std::printf("file: %s\n", options.mesh.c_str());
     std::printf("meshes_merged: %zu\n", importReport.meshesMerged);
+    std::printf("unit_scale: %.6g\n", importReport.unitScale);
     std::printf("vertices: %zu\n", m.vertices);
     std::printf("triangles: %zu\n", m.triangles);
     std::printf("degenerate_dropped: %zu\n", importReport.degenerateDropped);

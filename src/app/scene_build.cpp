@@ -39,6 +39,7 @@ void resolvePinGroups(SceneDesc& scene) {
         MeshImportOptions opts;
         opts.meshName = desc.pin.group;
         opts.orientOutward = false;  // only the vertices are used
+        opts.logUnitScale = false;   // said when the body's mesh was imported
         TriangleMesh group;
         try {
             group = importMesh(desc.meshPath, opts);

@@ -378,6 +378,22 @@ void weldByPosition(TriangleMesh& mesh) {
     mesh.vertices = std::move(vertices);
 }
 
+/// Metres per file unit from the FBX global setting assimp passes on as scene metadata:
+/// "UnitScaleFactor", the file's centimetres per unit (1: centimetres, 100: metres). 1 when the
+/// file has none (every other format: assimp's Collada reader applies <unit> itself, glTF is in
+/// metres) or when the value is not a finite positive number.
+double unitScaleOf(const aiScene* scene) {
+    const aiMetadata* meta = scene->mMetaData;
+    if (!meta) return 1;
+    double cm = 0;
+    float f = 0;
+    if (!meta->Get("UnitScaleFactor", cm)) {
+        if (!meta->Get("UnitScaleFactor", f)) return 1;
+        cm = f;
+    }
+    return std::isfinite(cm) && cm > 0 ? cm / 100 : 1;
+}
+
 }  // namespace
 
 TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
@@ -424,14 +440,25 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
         throw InputError(p, "", "assimp could not read it: " + (why.empty() ? "unknown error" : why));
     }
 
+    // The file's unit scale comes before its node transforms (and so before a scene's transform).
+    const double unitScale = unitScaleOf(scene);
+    Mat4 root = Mat4::Identity();
+    root.topLeftCorner<3, 3>() *= unitScale;
+    if (unitScale != 1 && options.logUnitScale) {
+        char line[200];
+        std::snprintf(line, sizeof line, "the file's unit is %.6g m (FBX UnitScaleFactor %.6g); scaled by %.6g to metres",
+                      unitScale, unitScale * 100, unitScale);
+        logInfo(p + ": " + line);
+    }
     Collector c(scene, p, options.meshName);
+    c.report.unitScale = unitScale;
     if (scene->mRootNode) {
-        c.walk(scene->mRootNode, Mat4::Identity(), false, 0);
+        c.walk(scene->mRootNode, root, false, 0);
     } else {
         for (unsigned i = 0; i < scene->mNumMeshes; ++i)
             if (scene->mMeshes[i] &&
                 (options.meshName.empty() || str(scene->mMeshes[i]->mName) == options.meshName))
-                c.addMesh(scene->mMeshes[i], Mat4::Identity());
+                c.addMesh(scene->mMeshes[i], root);
     }
 
     if (!options.meshName.empty() && c.meshesSelected == 0)

@@ -16,6 +16,9 @@ struct MeshImportOptions {
     /// Turn inside-out parts around (orientOutward), with a warning naming the file. Off for
     /// imports that use only the vertices (a pin's vertex group).
     bool orientOutward = true;
+    /// Log the line saying a file's unit scale was applied (off for a second import of the
+    /// same file, a pin's vertex group).
+    bool logUnitScale = true;
 };
 
 struct MeshImportReport {
@@ -23,10 +26,12 @@ struct MeshImportReport {
     std::size_t degenerateDropped = 0;
     std::size_t nonTriangleFaces = 0;   ///< points and lines ignored
     OrientReport orientation;           ///< parts turned around (orientOutward)
+    double unitScale = 1;               ///< metres per file unit applied (FBX UnitScaleFactor / 100)
 };
 
-/// Imports the file: walks the node tree accumulating transforms (a transform with det < 0 flips
-/// the winding), merges the selected meshes, welds vertices at exactly the same world position
+/// Imports the file: scales it to metres by the file's unit (FBX's UnitScaleFactor, with one
+/// logInfo line naming the scale), walks the node tree accumulating transforms (a transform with
+/// det < 0 flips the winding), merges the selected meshes, welds vertices at exactly the same world position
 /// (so STL files and meshes split by normals come out closed), drops degenerate triangles, and
 /// turns inside-out parts around with a warning (options.orientOutward).
 /// Throws InputError("<path>", "", what) when the file is missing, unreadable

@@ -332,6 +332,34 @@ TEST_CASE("cli: info describes a mesh and its voxelisation", "[app][cli]") {
     CHECK(lineCount(bad.output) == 1);
 }
 
+TEST_CASE("cli: an FBX mesh in centimetres comes in metres and one line says so", "[app][cli][render]") {
+    const fs::path spider = "/usr/share/assimp/models/FBX/spider.fbx";  // package assimp-testmodels
+    REQUIRE(fs::exists(spider));
+    const std::string line = "dgv: " + spider.string() +
+                             ": the file's unit is 0.01 m (FBX UnitScaleFactor 1); scaled by 0.01 to metres\n";
+    auto info = test::runDgv("info " + q(spider) + " --resolution 8");
+    INFO(info.output);
+    REQUIRE(info.exitCode == 0);
+    CHECK_THAT(info.output, Catch::StartsWith(line) && Catch::Contains("unit_scale: 0.01\n") &&
+                                Catch::Contains("size: 150.59"));
+    // In a scene the object's transform comes after the unit; the pin group's second import of
+    // the file says nothing.
+    test::TempDir dir("cli_fbx_units");
+    const fs::path scene = dir.path() / "spider.json";
+    std::ofstream(scene) << R"({"frames": {"start": 1, "end": 1},
+  "objects": [{"mesh": ")" << spider.string() << R"(", "transform": {"scale": 0.01}, "resolution": 8,
+               "pin": {"group": "Kopf"}}],
+  "render": {"width": 64, "height": 48, "supersample": 1}})";
+    auto r = test::runDgv("render " + q(scene) + " --out " + q(dir.path() / "out") + " --progress log");
+    INFO(r.output);
+    CHECK(r.exitCode == 0);
+    const std::size_t first = r.output.find(line);
+    CHECK(first != std::string::npos);
+    CHECK(r.output.find(line, first + 1) == std::string::npos);
+    // 193.38 m x 0.01 along z over 8 lattice points: both scales were applied.
+    CHECK_THAT(r.output, Catch::Contains("(h = 0.2417;"));
+}
+
 TEST_CASE("cli: imgdiff passes identical images and fails different ones", "[app][cli][render]") {
     test::TempDir dir("cli_imgdiff");
     fs::path a = writeSmallScene(dir.path());

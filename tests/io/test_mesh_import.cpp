@@ -332,6 +332,23 @@ TEST_CASE("mesh_import: real models from assimp's test set", "[io]") {
     CHECK(teapots.triangleCount() > 0);
 }
 
+// FBX files carry their unit (UnitScaleFactor, centimetres per unit); dgv works in metres.
+// spider.fbx is in centimetres: 15,059 x 7,974 x 19,338 units after its node transforms (each
+// node scales by 100: Blender's exporter writing metres as centimetres), so 150 m across.
+TEST_CASE("mesh_import: FBX units are scaled to metres", "[io]") {
+    REQUIRE(fs::exists(kModels / "FBX/spider.fbx"));
+    MeshImportReport report;
+    const TriangleMesh spider = import(kModels / "FBX/spider.fbx", "", &report);
+    CHECK(report.unitScale == Approx(0.01));
+    const Vec3 size = analyseMesh(spider).bounds.size();
+    CHECK(size.x() == Approx(150.59).epsilon(1e-3));
+    CHECK(size.y() == Approx(79.74).epsilon(1e-3));
+    CHECK(size.z() == Approx(193.38).epsilon(1e-3));
+    // Files without a unit are taken as they are.
+    CHECK(import(kModels / "PLY/cube.ply", "", &report).triangleCount() == 12);
+    CHECK(report.unitScale == 1);
+}
+
 // Every file of assimp-testmodels imports or fails with an InputError (about 20 s; run with
 // dgv_tests "[sweep]").
 TEST_CASE("mesh_import: sweep over every assimp test model", "[.][sweep]") {
