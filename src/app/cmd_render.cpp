@@ -12,6 +12,7 @@
 #include "io/atomic_file.hpp"
 #include "io/png.hpp"
 #include "io/scene_json.hpp"
+#include "io/state_file.hpp"
 #include "render/camera.hpp"
 #include "render/renderer.hpp"
 #include "sim/contact_highlight.hpp"
@@ -284,7 +285,11 @@ int runRender(const RenderOptions& options) {
     PngWriteQueue writer;
     std::vector<Image> thumbs;
     std::string inFlight;
-    int kept = 0;  // --resume: complete frames already on disk, not rendered again
+    int kept = 0;      // --resume: complete frames already on disk, not rendered again
+    int replaced = 0;  // --resume: frames on disk that were incomplete or of another version of the scene
+    // What every frame is a function of (io/state_file.hpp), and the GL renderer that drew it:
+    // --resume keeps only frames that carry both.
+    const std::string frameKey = sceneFrameKey(scene) + " " + glName;
     for (int frame = first; frame <= last; ++frame) {
         if (cancelRequested()) {
             writer.finish();
@@ -293,8 +298,9 @@ int runRender(const RenderOptions& options) {
             std::fprintf(stderr, "dgv: interrupted before frame %d; the frames written are complete\n", frame);
             return kExitInterrupted;
         }
-        if (Image done; options.resume && frameIsComplete(framePath(scene.output.dir, scene.name, frame), frame, rs.width,
-                                                          rs.height, options.contactSheet ? &done : nullptr)) {
+        const std::string onDisk = framePath(scene.output.dir, scene.name, frame);
+        if (Image done; options.resume && frameIsComplete(onDisk, frame, rs.width, rs.height, frameKey,
+                                                          options.contactSheet ? &done : nullptr)) {
             writer.finish();  // keeps the progress lines in frame order
             if (!inFlight.empty()) progress.step(std::exchange(inFlight, std::string()));
             progress.step(framePath(scene.output.dir, scene.name, frame) + " (complete, kept)");
@@ -302,6 +308,7 @@ int runRender(const RenderOptions& options) {
             ++kept;
             continue;  // a kept frame needs no state
         }
+        if (options.resume && fs::exists(onDisk)) ++replaced;
         // Frames were skipped (--frames A-B, --resume): restart from the latest state checkpoint
         // up to this frame when there is one; otherwise (and from there) simulate frame by frame.
         if (frame > dynamics.done() + 1) dynamics.restoreCheckpoint(frame);
@@ -341,7 +348,8 @@ int runRender(const RenderOptions& options) {
         const std::string path = framePath(scene.output.dir, scene.name, frame);
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
                     {"Source", glName},
-                    {"dgv:scene", scene.path},
+                    {"dgv:scene", fs::path(scene.path).filename().string()},
+                    {"dgv:key", frameKey},
                     {"dgv:frame", std::to_string(frame)}};
         if (options.contactSheet) thumbs.push_back(thumbnail(image, 320));
         writer.submit(path, std::move(image), png);  // waits for the previous frame's write
@@ -401,7 +409,12 @@ int runRender(const RenderOptions& options) {
         if (ec) throw RuntimeError(moviePath.string() + ": " + ec.message());
         logInfo("wrote the preview movie " + moviePath.string());
     }
-    if (options.resume) logInfo("resume: kept " + std::to_string(kept) + " complete frames, rendered " + std::to_string(last - first + 1 - kept));
+    if (options.resume)
+        logInfo("resume: kept " + std::to_string(kept) + " complete frames, rendered " + std::to_string(last - first + 1 - kept) +
+                (replaced > 0 ? " (" + std::to_string(replaced) +
+                                    " of them were on disk but incomplete, or of another version of the scene or its "
+                                    "settings, and were replaced)"
+                              : std::string()));
     logInfo("wrote " + std::to_string(last - first + 1) + " frames: " + scene.output.dir + "/" + scene.name +
             ".####.png");
     return kExitOk;

@@ -140,7 +140,7 @@ int renderCurveScene(const SceneDesc& scene, int first, int last) {
         const std::string path = (fs::path(scene.output.dir) / (scene.name + "." + num + ".png")).string();
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
                     {"Source", glName},
-                    {"dgv:scene", scene.path},
+                    {"dgv:scene", fs::path(scene.path).filename().string()},
                     {"dgv:frame", std::to_string(frame)}};
         writePng(path, image, png);
         progress.step(path);

@@ -57,6 +57,7 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
         if (mSim->body(i)) mSim->setSurface(i, &objects[i].restMesh, &objects[i].embedding);
     mRows.push_back(statsCsvHeader());
     if (mSim->active()) mSceneKey = sceneDynamicsKey(scene, lattices);
+    if (mVdb) mFrameKey = sceneFrameKey(scene);
 }
 
 DynamicsRun::~DynamicsRun() = default;
@@ -110,6 +111,7 @@ void DynamicsRun::writeVdb(int frame) {
     info.time = (frame - mScene.frameStart) / mScene.fps;
     info.fps = mScene.fps;
     info.scene = mScene.name;
+    info.key = mFrameKey;
     VdbWriteSettings set;
     set.worldVoxelSize = mScene.output.vdbVoxelSize;
     set.halfFloat = mScene.output.vdbHalf;
@@ -159,12 +161,18 @@ int DynamicsRun::restoreCheckpoint(int frame) {
             skip(path, problem);
             continue;
         }
-        if (mVdb) {  // the frames skipped must have their VDB files (written atomically: complete)
-            int missing = -1;
-            for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && missing < 0; ++f)
-                if (!fs::exists(vdbFramePath(fs::path(mScene.output.dir) / "vdb", mScene.name, f), ec)) missing = f;
-            if (missing >= 0) {
-                logInfo(path.string() + ": not used: the VDB file of frame " + std::to_string(missing) + " is missing");
+        if (mVdb) {
+            // The frames skipped must have their VDB files, complete (every grid reads) and of
+            // this version of the scene: a truncated, emptied, renamed or foreign file is not
+            // kept; the checkpoint is not used and the frames from an earlier one are made again.
+            int bad = -1;
+            std::string why;
+            for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && bad < 0; ++f) {
+                why = vdbFrameProblem(vdbFramePath(fs::path(mScene.output.dir) / "vdb", mScene.name, f), f, mFrameKey);
+                if (!why.empty()) bad = f;
+            }
+            if (bad >= 0) {
+                logInfo(path.string() + ": not used: the VDB file of frame " + std::to_string(bad) + " " + why);
                 continue;
             }
         }

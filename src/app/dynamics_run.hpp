@@ -63,6 +63,7 @@ private:
     std::vector<std::string> mRows;
     FrameStats mLast;
     std::uint64_t mSceneKey = 0;  ///< what checkpoints must match (io/state_file.hpp)
+    std::string mFrameKey;        ///< the VDB files' dgv_key (io/state_file.hpp, sceneFrameKey)
     std::vector<ContactHistory> mContactHistory;  ///< per object
 };
 

@@ -30,7 +30,8 @@ void checkOutputFolder(const std::string& dir, const std::string& input, const s
     }
 }
 
-bool frameIsComplete(const std::string& path, int frame, int width, int height, Image* image) {
+bool frameIsComplete(const std::string& path, int frame, int width, int height, const std::string& key,
+                     Image* image) {
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) return false;
     std::vector<std::pair<std::string, std::string>> text;
@@ -41,10 +42,12 @@ bool frameIsComplete(const std::string& path, int frame, int width, int height, 
         return false;
     }
     if (decoded.width != width || decoded.height != height) return false;
-    bool frameMatches = false;
-    for (const auto& [key, value] : text)
-        if (key == "dgv:frame") frameMatches = value == std::to_string(frame);
-    if (!frameMatches) return false;
+    bool frameMatches = false, keyMatches = false;
+    for (const auto& [name, value] : text) {
+        if (name == "dgv:frame") frameMatches = value == std::to_string(frame);
+        if (name == "dgv:key") keyMatches = value == key;
+    }
+    if (!frameMatches || !keyMatches) return false;
     if (image) *image = std::move(decoded);
     return true;
 }

@@ -12,10 +12,13 @@ namespace dgv::app {
 /// a folder (e.g. --out names a file): bad input, found before any work is done.
 void checkOutputFolder(const std::string& dir, const std::string& input, const std::string& where);
 
-/// --resume: true when `path` holds a complete frame `frame` of `width` x `height`: a PNG that
-/// decodes in full (a truncated or corrupt file does not) and whose dgv:frame text is `frame`.
-/// A file that exists but fails any of this is not trusted: the frame is rendered again.
-/// `image`, when given, receives the decoded frame (for the contact sheet).
-bool frameIsComplete(const std::string& path, int frame, int width, int height, Image* image = nullptr);
+/// --resume: true when `path` holds a complete frame `frame` of `width` x `height` of this
+/// version of the scene: a PNG that decodes in full (a truncated or corrupt file does not), whose
+/// dgv:frame text is `frame` and whose dgv:key text is `key` (io/state_file.hpp, sceneFrameKey:
+/// a frame of an earlier version of the scene, or of another bit depth, is not kept). A file that
+/// exists but fails any of this is not trusted: the frame is rendered again. `image`, when
+/// given, receives the decoded frame (for the contact sheet).
+bool frameIsComplete(const std::string& path, int frame, int width, int height, const std::string& key,
+                     Image* image = nullptr);
 
 }  // namespace dgv::app

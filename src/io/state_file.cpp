@@ -300,6 +300,32 @@ std::string dynamicsJson(const SceneDesc& scene) {
 
 }  // namespace
 
+std::string sceneFrameKey(const SceneDesc& scene) {
+    std::ifstream in(scene.path, std::ios::binary);
+    if (!in) throw InputError(scene.path, "", "cannot read the scene file again (for the frames' key)");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) throw InputError(scene.path, "", "the scene file changed while dgv ran");
+    if (j.contains("frames") && j["frames"].is_object()) j["frames"].erase("end");
+    if (j.contains("output") && j["output"].is_object()) j["output"].erase("dir");
+    Fnv f;
+    f.text(j.dump());  // keys sorted (std::map), no white space
+    f.text(DGV_VERSION_STRING);
+    auto file = [&](const std::string& path) {
+        if (path.empty()) return;
+        std::ifstream m(path, std::ios::binary);
+        f.text(std::string((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>()));
+    };
+    for (const ObjectDesc& o : scene.objects) file(o.meshPath);
+    for (const ColliderDesc& c : scene.colliders) {
+        file(c.meshPath);
+        file(c.levelSetPath);
+    }
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(f.h));
+    return hex;
+}
+
 std::uint64_t sceneDynamicsKey(const SceneDesc& scene, const std::vector<const Lattice*>& lattices) {
     Fnv f;
     f.text(dynamicsJson(scene));

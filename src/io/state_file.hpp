@@ -67,4 +67,12 @@ std::string readStateFile(const std::filesystem::path& path, StateCheckpoint& ou
 /// Throws InputError when the scene file cannot be read.
 std::uint64_t sceneDynamicsKey(const SceneDesc& scene, const std::vector<const Lattice*>& lattices);
 
+/// What every rendered frame of `scene` is a function of: the scene file's content (canonical
+/// JSON, without frames.end and output.dir, which change no frame), the bytes of every mesh and
+/// level-set file it reads, and this dgv's version. Written into each PNG frame (tEXt dgv:key)
+/// and checked by --resume, which keeps a frame only when it carries the current key: frames of
+/// an earlier version of the scene, or of another bit depth, are rendered again. The text of the
+/// key is 16 hex digits. Throws InputError when the scene file cannot be read.
+std::string sceneFrameKey(const SceneDesc& scene);
+
 }  // namespace dgv

@@ -1516,6 +1516,7 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
     meta.insertMeta("creator", openvdb::StringMetadata(std::string("dgv ") + DGV_VERSION_STRING));
     meta.insertMeta("dgv_version", openvdb::StringMetadata(DGV_VERSION_STRING));
     meta.insertMeta("dgv_scene", openvdb::StringMetadata(info.scene));
+    meta.insertMeta("dgv_key", openvdb::StringMetadata(info.key));
     meta.insertMeta("dgv_frame", openvdb::Int32Metadata(info.frame));
     meta.insertMeta("dgv_time", openvdb::DoubleMetadata(info.time));
     meta.insertMeta("dgv_fps", openvdb::DoubleMetadata(info.fps));

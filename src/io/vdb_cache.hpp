@@ -49,6 +49,7 @@ struct VdbFrameInfo {
     Real fps = 24;             ///< frames per second
     std::string scene;         ///< scene name
     std::string upAxis = "y";  ///< metadata only: the grids are in dgv's world frame (Y up)
+    std::string key;           ///< the scene's frame key (io/state_file.hpp, sceneFrameKey), as dgv_key
 };
 
 /// Which vector kernel inverts the cell maps: the widest the CPU runs (Auto: AVX-512, else AVX2,

@@ -138,4 +138,29 @@ SdfGrid meshLevelSet(const TriangleMesh& mesh, Real voxelSize, int exteriorBandV
     return denseLevelSet(*grid, maxSamples, bad);
 }
 
+std::string vdbFrameProblem(const std::filesystem::path& path, int frame, const std::string& key) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return "missing";
+    try {
+        openvdb::initialize();
+        openvdb::io::File file(path.string());
+        file.open(/*delayLoad=*/false);
+        const openvdb::MetaMap::Ptr meta = file.getMetadata();
+        const openvdb::GridPtrVecPtr grids = file.getGrids();  // every grid's data, decoded
+        file.close();
+        if (!meta) return "has no metadata";
+        const auto storedFrame = meta->getMetadata<openvdb::Int32Metadata>("dgv_frame");
+        if (!storedFrame) return "has no dgv_frame";
+        if (storedFrame->value() != frame) return "holds frame " + std::to_string(storedFrame->value());
+        const auto storedKey = meta->getMetadata<openvdb::StringMetadata>("dgv_key");
+        if (!storedKey || storedKey->value() != key) return "of another version of the scene";
+        if (!grids || grids->empty()) return "has no grids";
+        for (const openvdb::GridBase::Ptr& g : *grids)
+            if (!g) return "has an unreadable grid";
+    } catch (const std::exception& e) {
+        return std::string("does not read: ") + e.what();
+    }
+    return {};
+}
+
 }  // namespace dgv

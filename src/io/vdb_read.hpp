@@ -32,4 +32,11 @@ SdfGrid readVdbLevelSet(const std::filesystem::path& path, const std::string& gr
 SdfGrid meshLevelSet(const TriangleMesh& mesh, Real voxelSize, int exteriorBandVoxels, const std::string& what,
                      std::size_t maxSamples = std::size_t(256) << 20);
 
+/// Whether `path` is a complete frame `frame` of the VDB cache of the scene whose frame key is
+/// `key` (io/vdb_cache.hpp writes both into the file's metadata): empty when it is, else why
+/// not ("missing", "does not read: ...", "holds frame N", "of another version of the scene",
+/// "has no grids"). Every grid is read in full, so a truncated or cut file does not pass; a
+/// flipped bit that leaves the compressed data decodable is not seen.
+std::string vdbFrameProblem(const std::filesystem::path& path, int frame, const std::string& key);
+
 }  // namespace dgv

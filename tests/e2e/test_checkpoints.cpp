@@ -245,6 +245,32 @@ TEST_CASE("e2e: simulate --resume after SIGKILL gives the same stats.csv and VDB
     checkSameOutputs(dir.path() / "part", dir.path() / "full", false, true);
 }
 
+TEST_CASE("e2e: simulate --resume never keeps a truncated, emptied or foreign VDB file", "[e2e][resume][faults]") {
+    test::TempDir dir("e2e_ckpt_vdb");
+    writeDropScene(dir.path(), true);
+    REQUIRE(runDgvIn(dir.path(), "-q simulate drop.json --out full").exitCode == 0);
+    REQUIRE(runDgvIn(dir.path(), "-q simulate drop.json --out part").exitCode == 0);
+    const fs::path part = dir.path() / "part";
+    // Frame 7 replaced by frame 3's file (complete, but another frame): the checkpoints of
+    // frames 7 and 8 are not used, the run resumes from frame 6.
+    fs::copy_file(part / vdb(3), part / vdb(7), fs::copy_options::overwrite_existing);
+    const Run swapped = runDgvIn(dir.path(), "--progress log simulate drop.json --out part --resume");
+    INFO("stderr: " << swapped.err);
+    REQUIRE(swapped.exitCode == 0);
+    CHECK_THAT(swapped.err, Catch::Contains("not used: the VDB file of frame 7 holds frame 3"));
+    CHECK_THAT(swapped.err, Catch::Contains("resume: frames 1-6 restored from the checkpoint, simulating 2 frames"));
+    checkSameOutputs(part, dir.path() / "full", false, true);
+    // Frame 5 cut in half and frame 6 emptied: it resumes from frame 4.
+    fs::resize_file(part / vdb(5), fs::file_size(part / vdb(5)) / 2);
+    fs::resize_file(part / vdb(6), 0);
+    const Run r = runDgvIn(dir.path(), "--progress log simulate drop.json --out part --resume");
+    INFO("stderr: " << r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK_THAT(r.err, Catch::Contains("not used: the VDB file of frame 5 does not read"));
+    CHECK_THAT(r.err, Catch::Contains("resume: frames 1-4 restored from the checkpoint, simulating 4 frames"));
+    checkSameOutputs(part, dir.path() / "full", false, true);
+}
+
 TEST_CASE("e2e: render --frames A-B of a moving scene starts from the checkpoint and equals a full render",
           "[e2e][resume][slow]") {
     test::TempDir dir("e2e_ckpt_range");

@@ -139,6 +139,40 @@ TEST_CASE("e2e: --resume re-renders exactly the missing, truncated and foreign f
     CHECK_THAT(bigger.err, Catch::Contains("resume: kept 0 complete frames, rendered 4"));
 }
 
+TEST_CASE("e2e: --resume never keeps frames of an earlier version of the scene or of another bit depth",
+          "[e2e][resume]") {
+    test::TempDir dir("e2e_resume_version");
+    const fs::path scene = writeScene(dir.path(), 3);
+    REQUIRE(runDgvIn(dir.path(), "-q render small.json --out part").exitCode == 0);
+    // The end frame moved on: the frames on disk are of the same scene and are kept.
+    writeScene(dir.path(), 4);
+    const Run longer = runDgvIn(dir.path(), "--progress log render small.json --out part --resume");
+    INFO("stderr: " << longer.err);
+    REQUIRE(longer.exitCode == 0);
+    CHECK_THAT(longer.err, Catch::Contains("resume: kept 3 complete frames, rendered 1"));
+    // A colour changed: every frame on disk is of another version of the scene, none is kept.
+    std::string text = readAll(scene);
+    text.replace(text.find("0.8, 0.3, 0.2"), 13, "0.2, 0.3, 0.8");
+    std::ofstream(scene) << text;
+    const Run recoloured = runDgvIn(dir.path(), "--progress log render small.json --out part --resume");
+    INFO("stderr: " << recoloured.err);
+    REQUIRE(recoloured.exitCode == 0);
+    CHECK_THAT(recoloured.err, Catch::Contains("resume: kept 0 complete frames, rendered 4 (4 of them were on disk"));
+    REQUIRE(runDgvIn(dir.path(), "-q render small.json --out fresh").exitCode == 0);
+    for (int f = 1; f <= 4; ++f) CHECK(readAll(dir.path() / "part" / frameName(f)) == readAll(dir.path() / "fresh" / frameName(f)));
+    // 16-bit RGBA output: the 8-bit frames are replaced, not mixed with 16-bit ones.
+    text = readAll(scene);
+    text.replace(text.find("\"supersample\": 1}"), 17, R"("supersample": 1, "bit_depth": 16, "transparent": true})");
+    std::ofstream(scene) << text;
+    const Run deeper = runDgvIn(dir.path(), "--progress log render small.json --out part --resume");
+    INFO("stderr: " << deeper.err);
+    REQUIRE(deeper.exitCode == 0);
+    CHECK_THAT(deeper.err, Catch::Contains("resume: kept 0 complete frames, rendered 4"));
+    // The same scene by another path gives the same bytes (the key is the content, not the path).
+    REQUIRE(runDgvIn(dir.path(), "-q render " + quote((dir.path() / "small.json").string()) + " --out abs").exitCode == 0);
+    for (int f = 1; f <= 4; ++f) CHECK(readAll(dir.path() / "abs" / frameName(f)) == readAll(dir.path() / "part" / frameName(f)));
+}
+
 TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume finishes it byte-identically",
           "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_kill");
