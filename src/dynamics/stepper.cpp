@@ -225,6 +225,7 @@ std::vector<std::string> DynamicsSettings::validate() const {
     positive(volumeTolerance, "volume_tolerance");
     positive(reconstructTolerance, "reconstruct_tolerance");
     positive(maxLoadStrain, "max_load_strain");
+    positive(maxLandingStrain, "max_landing_strain");
     if (frameSweeps < 0) out.push_back("frame_sweeps: expected a count >= 0, got " + std::to_string(frameSweeps));
     nonNegative(frameSweepsAfter, "frame_sweeps_after");
     return out;
@@ -1036,6 +1037,24 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
         if (r1.ok) A1 = r1.matrix;
         mVc = (c1 - mC) / dt;
         mAdot = (A1 - mA) / dt;
+        // A jelly lands elastically while its squash is within maxLandingStrain
+        // (DynamicsSettings::elasticLanding): its centre and flex keep what the push left them.
+        Real landingStrain = 0;
+        if (report.contacts > 0 && mSet.elasticLanding && mSet.shapeStiffness > 0 && mSet.yieldStrain == 0) {
+            Eigen::SelfAdjointEigenSolver<Mat3> es;
+            es.computeDirect(A1.transpose() * A1);
+            const Vec3 l = es.eigenvalues();
+            landingStrain = l.minCoeff() > 0 ? (Real(0.5) * l.array().log()).abs().maxCoeff()
+                                             : std::numeric_limits<Real>::infinity();
+        }
+        // The inelastic rule's share: 0 for a jelly squashed up to the bound, rising to 1 at 1.5 times
+        // it (a blend: a switch at the bound made a landing that crossed it kick); 1 for goo, putty
+        // and with elasticLanding off.
+        const bool jellyLanding = mSet.elasticLanding && mSet.shapeStiffness > 0 && mSet.yieldStrain == 0;
+        const Real inelastic =
+            !jellyLanding ? Real(1)
+                          : std::clamp((landingStrain - mSet.maxLandingStrain) / (Real(0.5) * mSet.maxLandingStrain),
+                                       Real(0), Real(1));
         if (report.contacts > 0) {
             // restitution on the normal part of the body velocity, about the mean contact normal
             Vec3 nSum = Vec3::Zero(), restSum = Vec3::Zero();
@@ -1070,6 +1089,14 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 // collider's push first").
                 const Vec3 nrm = nSum.normalized();
                 const Real vn = vcBefore.dot(nrm);
+                // ... and a slow approach (a body resting or set down: |v_n| of a few g δt) is
+                // inelastic too: an elastic one chattered on the ground, the push of each step
+                // thrown back by the memory (a jelly of k = 1000 set down kept 3 J of 14).
+                // The scale: a tenth of the memory's velocity for a unit strain, √(k s).
+                const Real slow =
+                    jellyLanding ? Real(0.1) * std::sqrt(mSet.shapeStiffness * mS0inv.inverse().trace() / 3) : Real(0);
+                const Real share =
+                    slow > 0 ? std::max(inelastic, std::clamp(2 - std::abs(vn) / slow, Real(0), Real(1))) : inelastic;
                 const Vec3 xbar = restSum / static_cast<Real>(count);
                 // The body's rigid motion about its centre: ω = J⁻¹ L with L the angular momentum
                 // of the flex rate per unit mass (vee of the skew part of Ȧ S Aᵀ) and J = tr B − B,
@@ -1089,7 +1116,11 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 const Vec3 arm = A1 * xbar;
                 if (vn < 0) {
                     const Real restitution = e / static_cast<Real>(count), friction = mu / static_cast<Real>(count);
-                    mVc += -(mVc.dot(nrm) + restitution * vn) * nrm;
+                    // (the whole approach stops for the inelastic rule; a jelly's slow approach loses
+                    // only its velocity into the collider, so its rebound off a squash keeps going)
+                    mVc += -inelastic * (mVc.dot(nrm) + restitution * vn) * nrm;
+                    if (share > inelastic && mVc.dot(nrm) < 0)
+                        mVc -= ((share - inelastic) / (1 - inelastic)) * mVc.dot(nrm) * nrm;
                     // Coulomb friction at the contact patch: the slip of the patch's mean material
                     // point X̄ under the body's rigid motion, v_c + ω × A X̄ (its deformation, a
                     // sag spreading the patch, is the points' own friction's), loses up to the
@@ -1132,7 +1163,8 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 const Real lift = nrm.dot(mAdot * xbar);  // > 0: the patch leaves the collider
                 const Mat3 gA = volumeKeeping(nrm * xbar.transpose() * mS0inv, A1, mS0inv);
                 const Real effect = nrm.dot(gA * xbar);
-                if (lift > 0 && vn < 0 && effect > 1e-12 * xbar.squaredNorm() * mS0inv.norm()) mAdot -= (lift / effect) * gA;
+                if (inelastic > 0 && lift > 0 && vn < 0 && effect > 1e-12 * xbar.squaredNorm() * mS0inv.norm())
+                    mAdot -= (inelastic * lift / effect) * gA;
             }
         }
         mC = c1;

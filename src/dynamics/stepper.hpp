@@ -109,6 +109,16 @@ struct DynamicsSettings {
     /// "Contact: body and flex take the collider's push first"), then single points. false: only
     /// single points move (measured: the bottom layer is crushed and folds; for comparison).
     bool affineContact = true;
+    /// A jelly (shape memory, no yield) lands elastically: after a static collider's push the
+    /// centre keeps the normal velocity the push leaves it and the flex the squash rate the push
+    /// gave it, so the impact goes into the squash and the memory throws it back (docs/math.md,
+    /// "Velocities after contact"). The inelastic rule of goo and putty (the centre's approach
+    /// stops, the flex may not lift the patch) takes over in proportion as the flex's strain goes
+    /// from `maxLandingStrain` to 1.5 times it (what the memory cannot store without folding the
+    /// lattice is lost, as in a splat), and a slow approach (resting, set down) loses its velocity
+    /// into the collider. false: every body lands inelastically (a dead thud; for comparison).
+    bool elasticLanding = true;
+    Real maxLandingStrain = 0.7;  ///< the flex's logarithmic strain where a landing starts to be inelastic
     /// A pinned body takes the uniform load its pins refuse through three smooth volume-keeping
     /// modes (dynamics/load_modes.hpp; docs/math.md, "A pinned body under a uniform load"): it
     /// sags under gravity. false: the notes' step alone (a uniform field does not move it).
