@@ -283,15 +283,22 @@ std::string parseState(const std::string& bytes, StateCheckpoint& out) {
 
 namespace {
 
-/// The scene file's JSON without what cannot change the dynamics, in a canonical form.
-std::string dynamicsJson(const SceneDesc& scene) {
+/// The scene file read again and parsed, without frames.end (which changes no frame and no
+/// state); `purpose` names what it is read for in the error.
+nlohmann::json rereadScene(const SceneDesc& scene, const char* purpose) {
     std::ifstream in(scene.path, std::ios::binary);
-    if (!in) throw InputError(scene.path, "", "cannot read the scene file again (for the state checkpoints)");
+    if (!in) throw InputError(scene.path, "", std::string("cannot read the scene file again (for ") + purpose + ")");
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
     if (j.is_discarded() || !j.is_object()) throw InputError(scene.path, "", "the scene file changed while dgv ran");
-    for (const char* key : {"name", "camera", "render", "output", "curves", "gln"}) j.erase(key);
     if (j.contains("frames") && j["frames"].is_object()) j["frames"].erase("end");
+    return j;
+}
+
+/// The scene file's JSON without what cannot change the dynamics, in a canonical form.
+std::string dynamicsJson(const SceneDesc& scene) {
+    nlohmann::json j = rereadScene(scene, "the state checkpoints");
+    for (const char* key : {"name", "camera", "render", "output", "curves", "gln"}) j.erase(key);
     if (j.contains("objects") && j["objects"].is_array())
         for (auto& o : j["objects"])
             if (o.is_object()) o.erase("color");
@@ -301,12 +308,7 @@ std::string dynamicsJson(const SceneDesc& scene) {
 }  // namespace
 
 std::string sceneFrameKey(const SceneDesc& scene) {
-    std::ifstream in(scene.path, std::ios::binary);
-    if (!in) throw InputError(scene.path, "", "cannot read the scene file again (for the frames' key)");
-    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) throw InputError(scene.path, "", "the scene file changed while dgv ran");
-    if (j.contains("frames") && j["frames"].is_object()) j["frames"].erase("end");
+    nlohmann::json j = rereadScene(scene, "the frames' key");
     if (j.contains("output") && j["output"].is_object()) j["output"].erase("dir");
     Fnv f;
     f.text(j.dump());  // keys sorted (std::map), no white space
