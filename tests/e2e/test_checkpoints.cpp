@@ -245,7 +245,7 @@ TEST_CASE("e2e: simulate --resume after SIGKILL gives the same stats.csv and VDB
     checkSameOutputs(dir.path() / "part", dir.path() / "full", false, true);
 }
 
-TEST_CASE("e2e: simulate --resume never keeps a truncated, emptied or foreign VDB file", "[e2e][resume][faults]") {
+TEST_CASE("e2e: simulate --resume never keeps a truncated, emptied or foreign VDB file", "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_ckpt_vdb");
     writeDropScene(dir.path(), true);
     REQUIRE(runDgvIn(dir.path(), "-q simulate drop.json --out full").exitCode == 0);

@@ -140,7 +140,7 @@ TEST_CASE("e2e: --resume re-renders exactly the missing, truncated and foreign f
 }
 
 TEST_CASE("e2e: --resume never keeps frames of an earlier version of the scene or of another bit depth",
-          "[e2e][resume]") {
+          "[e2e][resume][slow]") {
     test::TempDir dir("e2e_resume_version");
     const fs::path scene = writeScene(dir.path(), 3);
     REQUIRE(runDgvIn(dir.path(), "-q render small.json --out part").exitCode == 0);
