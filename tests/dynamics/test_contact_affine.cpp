@@ -176,7 +176,7 @@ TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it, wi
     CHECK_FALSE(without.fault.empty());
 }
 
-TEST_CASE("contact: a landing jelly squashes and throws its squash back; landing inelastically it does not",
+TEST_CASE("contact: a landing jelly squashes and throws its squash back, landing inelastically it does not",
           "[dynamics][contact][slow]") {
     // A jelly ball (6 voxels' radius, 0.3 m, k = 300/s², damping 1/s) falling onto the ground at
     // 3.5 m/s (docs/math.md, "Velocities after contact"). A real jelly squashes on landing and its
