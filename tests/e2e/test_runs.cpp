@@ -173,6 +173,25 @@ TEST_CASE("e2e: --resume never keeps frames of an earlier version of the scene o
     for (int f = 1; f <= 4; ++f) CHECK(readAll(dir.path() / "abs" / frameName(f)) == readAll(dir.path() / "part" / frameName(f)));
 }
 
+TEST_CASE("e2e: --movie does not trust ffmpeg's exit status: a broken movie is not kept", "[e2e][faults]") {
+    // ffmpeg on a full disk prints "Error writing trailer ... No space left on device", exits 0
+    // and leaves a few broken bytes. A stand-in does just that (no ffmpeg is needed for the test).
+    test::TempDir dir("e2e_movie");
+    writeScene(dir.path(), 2);
+    fs::create_directories(dir.path() / "bin");
+    const fs::path fake = dir.path() / "bin" / "ffmpeg";
+    std::ofstream(fake) << "#!/bin/sh\nfor last; do :; done\nprintf 'x' > \"$last\"\n"
+                           "echo \"Error writing trailer of $last: No space left on device\" >&2\nexit 0\n";
+    fs::permissions(fake, fs::perms::owner_all);
+    const Run r = runDgvIn(dir.path(), "render small.json --movie --out m", "PATH=" + quote(dir.path() / "bin") + ":\"$PATH\"");
+    INFO("stderr: " << r.err);
+    CHECK(r.exitCode == 1);
+    CHECK_THAT(r.err, Catch::Contains("ffmpeg failed making"));
+    CHECK_THAT(r.err, Catch::Contains("No space left on device"));
+    CHECK_THAT(r.err, Catch::Contains("the frames are complete"));
+    CHECK(namesIn(dir.path() / "m") == frameNames(1, 2));  // no movie, no temporary, no log
+}
+
 TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume finishes it byte-identically",
           "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_kill");
