@@ -143,6 +143,11 @@ int DynamicsRun::restoreCheckpoint(int frame) {
         if (stale++ == 0) firstStale = path.string() + ": " + why;
     };
     int restored = -1;
+    // The first bad VDB file found and why: checkpoints are tried from the latest down, so every
+    // later one that skips it is refused without reading the files again, and every earlier one
+    // skips only files already read good.
+    int badVdb = -1;
+    std::string badWhy;
     for (int k = frame; k >= lowest && restored < 0; --k) {
         const fs::path path = stateFilePath(mScene.output.dir, mScene.name, k);
         std::error_code ec;
@@ -165,14 +170,13 @@ int DynamicsRun::restoreCheckpoint(int frame) {
             // The frames skipped must have their VDB files, complete (every grid reads) and of
             // this version of the scene: a truncated, emptied, renamed or foreign file is not
             // kept; the checkpoint is not used and the frames from an earlier one are made again.
-            int bad = -1;
-            std::string why;
-            for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && bad < 0; ++f) {
-                why = vdbFrameProblem(vdbFramePath(fs::path(mScene.output.dir) / "vdb", mScene.name, f), f, mFrameKey);
-                if (!why.empty()) bad = f;
-            }
-            if (bad >= 0) {
-                logInfo(path.string() + ": not used: the VDB file of frame " + std::to_string(bad) + " " + why);
+            if (badVdb < 0)
+                for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && badVdb < 0; ++f) {
+                    badWhy = vdbFrameProblem(vdbFramePath(fs::path(mScene.output.dir) / "vdb", mScene.name, f), f, mFrameKey);
+                    if (!badWhy.empty()) badVdb = f;
+                }
+            if (badVdb >= 0 && badVdb <= k) {
+                logInfo(path.string() + ": not used: the VDB file of frame " + std::to_string(badVdb) + " " + badWhy);
                 continue;
             }
         }
