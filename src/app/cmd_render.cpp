@@ -319,20 +319,29 @@ int runRender(const RenderOptions& options) {
         if (rd.overlayGlnLoops) frameScene.lines.clear();  // this frame's loops replace the last frame's
         for (std::size_t i = 0; i < objects.size(); ++i) {
             const DeformableBody* body = dynamics.body(i);
-            deformVertices(objects[i].embedding, body ? body->state() : objects[i].state, frameScene.meshes[i].positions);
+            // A re-parametrised body (goo) lives on a lattice of its own: the overlays made on the
+            // object's lattice do not fit it.
+            const bool ownLattice = !body || &body->lattice() == &objects[i].lattice;
+            if (body && &dynamics.surfaceMesh(i) != &objects[i].restMesh &&
+                frameScene.meshes[i].triangles != dynamics.surfaceMesh(i).triangles) {
+                frameScene.meshes[i].triangles = dynamics.surfaceMesh(i).triangles;
+                frameScene.meshes[i].creasePositions = dynamics.surfaceMesh(i).vertices;
+            }
+            deformVertices(body ? dynamics.embedding(i) : objects[i].embedding, body ? body->state() : objects[i].state,
+                           frameScene.meshes[i].positions);
             if (contactMode != ContactHighlightMode::Off && body)
-                pointScalarToVertices(objects[i].embedding,
+                pointScalarToVertices(dynamics.embedding(i),
                                       contactPointScalar(contactMode, body->contact(), body->contactDepth(),
                                                          dynamics.contactHistory(i).age(), rd.contactFadeFrames,
                                                          frameScene.meshes[i].ramp.min),
                                       frameScene.meshes[i].scalar);
             if (rd.overlayLattice) {
                 const std::vector<Vec3>& x = (body ? body->state() : objects[i].state).position;
-                frameScene.points[i].points = rd.overlayLatticeSet == "all"
+                frameScene.points[i].points = rd.overlayLatticeSet == "all" || !ownLattice
                                                   ? x
                                                   : latticeOverlayPoints(objects[i].lattice, x, latticeShown[i], &camera.eye);
             }
-            if (loopNetworks[i]) {
+            if (loopNetworks[i] && ownLattice) {
                 static const std::vector<unsigned char> kNoContact;
                 for (ClosedCurve& loop : glnOverlayLoops(*loopNetworks[i], loopSet,
                                                          (body ? body->state() : objects[i].state).position,

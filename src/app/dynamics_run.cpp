@@ -7,6 +7,7 @@
 #include "io/atomic_file.hpp"
 #include "io/state_file.hpp"
 #include "io/vdb_cache.hpp"
+#include "io/vdb_mesh.hpp"
 #include "io/vdb_read.hpp"
 
 #include <algorithm>
@@ -50,6 +51,8 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
     mSim->setSurfaceDistance([](const TriangleMesh& mesh, Real voxel, int band) {
         return meshLevelSet(mesh, voxel, band, "an object's deformed surface");
     });
+    // Goo that is re-parametrised takes its surface from its volume (sim/simulation).
+    mSim->setLevelSetMesher([](const SdfGrid& grid) { return levelSetMesh(grid); });
     if (mSim->active()) mSim->checkStartOverlap();
     // Each frame's rendered surface is checked before the frame is written (docs/math.md, "Never a
     // torn frame").
@@ -63,6 +66,16 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
 DynamicsRun::~DynamicsRun() = default;
 
 const DeformableBody* DynamicsRun::body(std::size_t i) const { return mSim->active() ? mSim->body(i) : nullptr; }
+
+const TriangleMesh& DynamicsRun::surfaceMesh(std::size_t i) const {
+    const TriangleMesh* m = mSim->body(i) ? mSim->surfaceMesh(i) : nullptr;
+    return m ? *m : mObjects[i].restMesh;
+}
+
+const MeshEmbedding& DynamicsRun::embedding(std::size_t i) const {
+    const MeshEmbedding* e = mSim->body(i) ? mSim->surfaceEmbedding(i) : nullptr;
+    return e ? *e : mObjects[i].embedding;
+}
 
 void DynamicsRun::record(const FrameStats& s) {
     mLast = s;
@@ -99,8 +112,8 @@ void DynamicsRun::writeVdb(int frame) {
         o.contact = &b->contact();
         o.restVolumes = &b->restVolumes();
         if (mScene.output.vdbSurface) {
-            surfaces[i].triangles = mObjects[i].restMesh.triangles;
-            deformVertices(mObjects[i].embedding, b->state(), surfaces[i].vertices);
+            surfaces[i].triangles = surfaceMesh(i).triangles;
+            deformVertices(embedding(i), b->state(), surfaces[i].vertices);
             o.surface = &surfaces[i];
         }
         objs.push_back(o);

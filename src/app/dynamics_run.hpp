@@ -38,6 +38,11 @@ public:
     int done() const { return mDone; }
     /// The moving body of object i, or nullptr (render it at rest).
     const DeformableBody* body(std::size_t i) const;
+    /// The embedding of object i's surface in its body's lattice now (the object's own until goo
+    /// is re-parametrised: sim/simulation).
+    const MeshEmbedding& embedding(std::size_t i) const;
+    /// Object i's surface at rest on that lattice (its triangles change when goo is remapped).
+    const TriangleMesh& surfaceMesh(std::size_t i) const;
     bool active() const { return mSim->active(); }
     /// VDB frames before `frame` are simulated but not written (--frames A-B).
     void setFirstWrittenFrame(int frame) { mFirstWritten = frame; }

@@ -5,4 +5,5 @@ list(APPEND DGV_DYNAMICS_SOURCES
   dynamics/stepper.cpp
   dynamics/body_state.cpp
   dynamics/load_modes.cpp
+  dynamics/reparametrise.cpp
 )

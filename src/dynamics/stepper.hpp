@@ -298,6 +298,8 @@ public:
     std::array<std::vector<Mat3>, 3>& deltaGamma() { return mDGamma; }
     const std::array<std::vector<Mat3>, 3>& deltaGamma() const { return mDGamma; }
     Real lastStepLength() const { return mDtLast; }  ///< s, the last finished step's (0: none yet)
+    Real freeFlight() const { return mFreeFlight; }  ///< s since the body last touched a collider
+    bool halfStep() const { return mHalfStep; }      ///< centre and flex velocities are half-step ones
     const DynamicsSettings& settings() const { return mSet; }
     const Vec3& centre() const { return mC; }
     const Vec3& centreVelocity() const { return mVc; }  ///< at the last half step

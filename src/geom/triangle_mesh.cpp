@@ -173,4 +173,38 @@ std::vector<Vec3> vertexNormals(const TriangleMesh& mesh) {
     return normals;
 }
 
+void smoothTaubin(TriangleMesh& mesh, int iterations, Real lambda, Real mu) {
+    const std::size_t n = mesh.vertices.size();
+    std::vector<std::vector<int>> neighbours(n);
+    for (const std::array<int, 3>& t : mesh.triangles)
+        for (int e = 0; e < 3; ++e) {
+            const int a = t[static_cast<std::size_t>(e)], b = t[static_cast<std::size_t>((e + 1) % 3)];
+            neighbours[static_cast<std::size_t>(a)].push_back(b);
+            neighbours[static_cast<std::size_t>(b)].push_back(a);
+        }
+    for (std::vector<int>& nb : neighbours) {
+        std::sort(nb.begin(), nb.end());
+        nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    }
+    std::vector<Vec3> next(n);
+    auto umbrella = [&](Real f) {
+        for (std::size_t v = 0; v < n; ++v) {
+            const std::vector<int>& nb = neighbours[v];
+            if (nb.empty()) {
+                next[v] = mesh.vertices[v];
+                continue;
+            }
+            Vec3 mean = Vec3::Zero();
+            for (const int q : nb) mean += mesh.vertices[static_cast<std::size_t>(q)];
+            mean /= static_cast<Real>(nb.size());
+            next[v] = mesh.vertices[v] + f * (mean - mesh.vertices[v]);
+        }
+        mesh.vertices.swap(next);
+    };
+    for (int k = 0; k < iterations; ++k) {
+        umbrella(lambda);
+        umbrella(mu);
+    }
+}
+
 }  // namespace dgv

@@ -370,6 +370,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.material.volumeTolerance = m.number("volume_tolerance", d.material.volumeTolerance, 1e-12, 0.1);
             d.material.maxDeltaGamma = m.number("max_delta_gamma", d.material.maxDeltaGamma, 0, 1, true);
             d.material.pinnedLoad = m.boolean("pinned_load", d.material.pinnedLoad);
+            d.material.reparametrise = m.boolean("reparametrise", d.material.reparametrise);
         });
         d.velocity = o.vec3("velocity", d.velocity);
         d.spinDegrees = o.vec3("spin", d.spinDegrees);

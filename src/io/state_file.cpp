@@ -203,7 +203,17 @@ std::string serializeState(const StateCheckpoint& c) {
     payload.value(static_cast<std::uint32_t>(c.objects.size()));
     for (const Simulation::ObjectState& o : c.objects) {
         payload.value(static_cast<std::uint8_t>(o.present));
-        if (o.present) writeBody(payload, o.body);
+        if (!o.present) continue;
+        writeBody(payload, o.body);
+        payload.value(static_cast<std::int32_t>(o.remaps));
+        if (o.remaps > 0) {
+            payload.value(o.latticeOrigin);
+            payload.value(o.latticeSpacing);
+            payload.value(o.latticeDims);
+            payload.array(o.latticeCoords);
+            payload.array(o.surfaceVertices);
+            payload.array(o.surfaceTriangles);
+        }
     }
     payload.value(static_cast<std::uint32_t>(c.contactAges.size()));
     for (const std::vector<int>& a : c.contactAges) payload.array(a);
@@ -268,7 +278,18 @@ std::string parseState(const std::string& bytes, StateCheckpoint& out) {
     for (std::uint32_t i = 0; i < objects && r.ok; ++i) {
         Simulation::ObjectState o;
         o.present = readBool(r);
-        if (o.present) readBody(r, o.body);
+        if (o.present) {
+            readBody(r, o.body);
+            o.remaps = r.value<std::int32_t>();
+            if (o.remaps > 0) {
+                o.latticeOrigin = r.value<Vec3>();
+                o.latticeSpacing = r.value<Real>();
+                o.latticeDims = r.value<Vec3i>();
+                r.array(o.latticeCoords);
+                r.array(o.surfaceVertices);
+                r.array(o.surfaceTriangles);
+            }
+        }
         out.objects.push_back(std::move(o));
     }
     const auto histories = r.value<std::uint32_t>();

@@ -29,7 +29,7 @@
 
 namespace dgv {
 
-inline constexpr std::uint32_t kStateFormatVersion = 7;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load modes' amplitudes; 6: the volume multipliers' prediction; 7: the time in free flight
+inline constexpr std::uint32_t kStateFormatVersion = 8;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load modes' amplitudes; 6: the volume multipliers' prediction; 7: the time in free flight; 8: a re-parametrised body's lattice and surface
 
 struct StateCheckpoint {
     std::string dgvVersion;                  ///< DGV_VERSION_STRING of the writer

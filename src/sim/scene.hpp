@@ -45,6 +45,9 @@ struct MaterialDesc {
     Real volumeTolerance = 1e-5; ///< the volume projection's max |V/V0 − 1| per cell after a step
     Real maxDeltaGamma = 0.05;  ///< limiter on the connection change per step
     bool pinnedLoad = true;     ///< a pinned body's load modes (DynamicsSettings::pinnedLoad)
+    /// Goo re-voxelised in its current shape when its lattice distorts (sim/simulation,
+    /// docs/math.md "Re-parametrisation"); false keeps the lattice it starts with.
+    bool reparametrise = true;
 };
 
 /// Material points held fixed: those whose rest position lies in a box or a ball (world units),

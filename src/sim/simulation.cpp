@@ -127,28 +127,144 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
     mNetworks.resize(mBodies.size());
     mObjectContact = scene.collision.objects &&
                      std::count_if(mBodies.begin(), mBodies.end(), [](const auto& b) { return b != nullptr; }) >= 2;
-    if (scene.collision.detect == CollisionDesc::Detect::Gln && (!mColliders.empty() || mObjectContact))
-        for (std::size_t i = 0; i < mBodies.size(); ++i) {
-            if (!mBodies[i]) continue;
-            GlnNetworkSettings gs;
-            gs.coarseToFine = scene.collision.coarseToFine;
-            mNetworks[i] = std::make_unique<GlnNetwork>(*lattices[i], gs);
-            const GlnNetwork* net = mNetworks[i].get();
-            mBodies[i]->setContactDetector(
-                [net](const std::vector<Vec3>& x, const Collider& col, std::vector<unsigned char>& R) {
-                    const SignedDistance phi = [&col](const Vec3& p, Vec3* g) {
-                        Vec3 gg;
-                        const Real v = col.evaluate(p, gg);
-                        if (g) *g = gg;
-                        return v;
-                    };
-                    net->contactSet(x, phi, R);
-                });
-        }
+    mGlnDetect = scene.collision.detect == CollisionDesc::Detect::Gln && (!mColliders.empty() || mObjectContact);
+    for (std::size_t i = 0; i < mBodies.size(); ++i) attachNetwork(i);
+    // Goo without pins is re-voxelised when its lattice no longer follows it (docs/math.md,
+    // "Re-parametrisation").
+    mLattices = lattices;
+    mRemapped.resize(mBodies.size());
+    mRemapRefused.resize(mBodies.size());
+    mRemapAllowed.assign(mBodies.size(), 0);
+    for (std::size_t i = 0; i < mBodies.size(); ++i) {
+        const ObjectDesc& o = scene.objects[i];
+        mRemapAllowed[i] = mBodies[i] && o.material.reparametrise && o.material.stiffness == 0 && !mBodies[i]->anyPinned();
+    }
     mFrame = scene.frameStart;
 }
 
 Simulation::~Simulation() = default;
+
+void Simulation::attachNetwork(std::size_t i) {
+    if (!mGlnDetect || !mBodies[i]) return;
+    GlnNetworkSettings gs;
+    gs.coarseToFine = mScene.collision.coarseToFine;
+    mNetworks[i] = std::make_unique<GlnNetwork>(mBodies[i]->lattice(), gs);
+    const GlnNetwork* net = mNetworks[i].get();
+    mBodies[i]->setContactDetector([net](const std::vector<Vec3>& x, const Collider& col, std::vector<unsigned char>& R) {
+        const SignedDistance phi = [&col](const Vec3& p, Vec3* g) {
+            Vec3 gg;
+            const Real v = col.evaluate(p, gg);
+            if (g) *g = gg;
+            return v;
+        };
+        net->contactSet(x, phi, R);
+    });
+}
+
+const TriangleMesh* Simulation::surfaceMesh(std::size_t object) const {
+    return object < mSurfaces.size() ? mSurfaces[object].mesh : nullptr;
+}
+
+const MeshEmbedding* Simulation::surfaceEmbedding(std::size_t object) const {
+    return object < mSurfaces.size() ? mSurfaces[object].embedding : nullptr;
+}
+
+int Simulation::reparametrisations(std::size_t object) const {
+    return object < mRemapped.size() ? mRemapped[object].count : 0;
+}
+
+void Simulation::installLattice(std::size_t i, Lattice lattice, DeformableBodyState state, TriangleMesh surface,
+                                int remaps) {
+    const DynamicsSettings settings = mBodies[i]->settings();
+    Remapped r;
+    r.count = remaps;
+    const Lattice* lat = mLattices[i];
+    if (remaps > 0) {
+        r.lattice = std::make_unique<Lattice>(std::move(lattice));
+        lat = r.lattice.get();
+    }
+    // A re-parametrised body is never pinned (mRemapAllowed), so its own lattice's body is not.
+    auto body = std::make_unique<DeformableBody>(*lat, restPositions(*lat), settings);
+    body->restoreState(std::move(state));
+    mBodies[i] = std::move(body);  // the old body goes before the lattice it was built on
+    mSurfaces.resize(mBodies.size());
+    mOwnSurfaces.resize(mBodies.size());
+    const bool surfaced = remaps > 0 && mOwnSurfaces[i].mesh && !surface.vertices.empty();
+    if (surfaced) {
+        r.mesh = std::move(surface);
+        r.embedding = embedVertices(*lat, r.mesh.vertices);
+        // The vertices outside the cells (the surface lies half a voxel beyond the lattice points)
+        // follow their anchor's frame to first order: a goo boundary's second derivatives are
+        // rough at the lattice scale, and the quadratic term threw them (torn edges).
+        r.embedding.secondOrder = false;
+    }
+    mRemapped[i] = std::move(r);
+    if (surfaced) {
+        mSurfaces[i].mesh = &mRemapped[i].mesh;
+        mSurfaces[i].embedding = &mRemapped[i].embedding;
+        mSurfaces[i].setup = prepareSurfaceCheck(mRemapped[i].mesh);
+    } else {
+        mSurfaces[i] = mOwnSurfaces[i];
+    }
+    attachNetwork(i);
+}
+
+TriangleMesh Simulation::volumeSurface(std::size_t i) const {
+    TriangleMesh m;
+    if (!mSurfaceDistance || !mLevelSetMesher || !mBodies[i]) return m;
+    const DeformableBody& b = *mBodies[i];
+    const Real h = b.lattice().spacing;
+    // A level set of the lattice's outer faces on the lattice's spacing, 3 voxels of band.
+    SdfGrid g = mSurfaceDistance(latticeSurface(b.lattice(), b.positions()), h, 3);
+    if (g.empty()) return m;
+    for (float& v : g.values) v -= static_cast<float>(h / 2);
+    m = mLevelSetMesher(g);
+    // The level set of a voxel staircase keeps its steps; ten λ|μ pairs take them off.
+    smoothTaubin(m, 10);
+    return m;
+}
+
+Index Simulation::reparametriseDistorted(int frame) {
+    Index done = 0;
+    for (std::size_t i = 0; i < mBodies.size(); ++i) {
+        if (!mBodies[i] || i >= mRemapAllowed.size() || !mRemapAllowed[i]) continue;
+        const DeformableBody& b = *mBodies[i];
+        if (b.lastStepLength() == 0 || !mRemapBound.exceeded(latticeDistortion(b))) continue;
+        Reparametrisation r = reparametrise(b);
+        if (!r.refused.empty()) {
+            if (mRemapRefused[i].empty())
+                logInfo("frame " + std::to_string(frame) + ": object '" + mScene.objects[i].name +
+                        "' keeps its lattice although it has distorted: " + r.refused);
+            mRemapRefused[i] = r.refused;
+            continue;
+        }
+        mRemapRefused[i].clear();
+        {
+            const LatticeDistortion d = latticeDistortion(b);
+            char line[320];
+            std::snprintf(line, sizeof line,
+                          "frame %d: object '%s' re-voxelised in its current shape (max |Γ| %.2f, frame aspect %.1f, "
+                          "min det %.2f): %lld -> %lld points, spacing x %.5f",
+                          frame, mScene.objects[i].name.c_str(), d.maxGamma, d.maxAspect, d.minFrameDet,
+                          static_cast<long long>(b.lattice().size()), static_cast<long long>(r.lattice.size()), r.dilation);
+            logInfo(line);
+        }
+        // The surface from here on: the material's own, from its volume (or, without the
+        // callbacks that make it, the old surface carried on), in the new lattice's frame.
+        TriangleMesh surface;
+        if (i < mSurfaces.size() && mSurfaces[i].mesh) {
+            surface = volumeSurface(i);
+            if (surface.vertices.empty()) {
+                surface.triangles = mSurfaces[i].mesh->triangles;
+                deformVertices(*mSurfaces[i].embedding, b.state(), surface.vertices);
+            }
+            for (Vec3& v : surface.vertices) v = r.pivot + r.dilation * (v - r.pivot);
+        }
+        installLattice(i, std::move(r.lattice), std::move(r.state), std::move(surface), mRemapped[i].count + 1);
+        ++done;
+    }
+    return done;
+}
 
 void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
     const std::size_t n = mBodies.size();
@@ -410,10 +526,13 @@ void Simulation::setSurface(std::size_t object, const TriangleMesh* restMesh, co
     DGV_CHECK(object < mBodies.size());
     DGV_CHECK((restMesh == nullptr) == (embedding == nullptr));
     if (restMesh) DGV_CHECK_EQ(restMesh->vertices.size(), embedding->size());
+    DGV_CHECK(reparametrisations(object) == 0);
     mSurfaces.resize(mBodies.size());
     mSurfaces[object].mesh = restMesh;
     mSurfaces[object].embedding = embedding;
     mSurfaces[object].setup = restMesh ? prepareSurfaceCheck(*restMesh) : SurfaceCheckSetup{};
+    mOwnSurfaces.resize(mBodies.size());
+    mOwnSurfaces[object] = mSurfaces[object];
 }
 
 bool Simulation::checkSurfaces(FrameStats& s, int* failed, SurfaceCheck* failedCheck) const {
@@ -448,6 +567,9 @@ bool Simulation::checkSurfaces(FrameStats& s, int* failed, SurfaceCheck* failedC
 
 FrameStats Simulation::advanceTo(int frame) {
     DGV_CHECK_EQ(frame, mFrame + 1);
+    // Goo whose lattice no longer follows it is re-voxelised before the frame (a function of the
+    // state, so a resumed run does the same).
+    const Index remaps = reparametriseDistorted(frame);
     // A frame that faults or tears its surface is simulated again from its start at twice the
     // substeps (docs/math.md, "Never a torn frame"): nothing of it has been written yet, and the
     // decision is a function of the state, so a resumed run retries the same way.
@@ -470,6 +592,7 @@ FrameStats Simulation::advanceTo(int frame) {
                     std::snprintf(line, sizeof line, "frame %d: simulated again at %d substeps after: ", frame, sub);
                     logInfo(line + first);
                 }
+                s.reparametrisations = remaps;
                 return s;
             }
             char what[240];
@@ -562,6 +685,16 @@ std::vector<Simulation::ObjectState> Simulation::saveState() const {
         if (mBodies[i]) {
             out[i].present = true;
             out[i].body = mBodies[i]->saveState();
+            const Remapped& r = mRemapped[i];
+            out[i].remaps = r.count;
+            if (r.count > 0) {
+                out[i].latticeOrigin = r.lattice->originWorld;
+                out[i].latticeSpacing = r.lattice->spacing;
+                out[i].latticeDims = r.lattice->dims;
+                out[i].latticeCoords = r.lattice->coords;
+                out[i].surfaceVertices = r.mesh.vertices;
+                out[i].surfaceTriangles = r.mesh.triangles;
+            }
         }
     return out;
 }
@@ -569,8 +702,26 @@ std::vector<Simulation::ObjectState> Simulation::saveState() const {
 bool Simulation::stateFits(const std::vector<ObjectState>& states) const {
     if (states.size() != mBodies.size()) return false;
     for (std::size_t i = 0; i < mBodies.size(); ++i) {
-        if (states[i].present != (mBodies[i] != nullptr)) return false;
-        if (mBodies[i] && !mBodies[i]->stateFits(states[i].body)) return false;
+        const ObjectState& o = states[i];
+        if (o.present != (mBodies[i] != nullptr)) return false;
+        if (!mBodies[i]) continue;
+        if (o.remaps < 0 || (o.remaps > 0 && !mRemapAllowed[i])) return false;
+        if (o.remaps == mRemapped[i].count && (o.remaps == 0 || o.latticeCoords == mRemapped[i].lattice->coords)) {
+            if (!mBodies[i]->stateFits(o.body)) return false;
+            continue;
+        }
+        // Another lattice than the body's now: the arrays must fit a body built on it.
+        const std::size_t n = o.remaps > 0 ? o.latticeCoords.size() : static_cast<std::size_t>(mLattices[i]->size());
+        if (o.remaps > 0) {
+            if (!(o.latticeSpacing > 0) || (o.latticeDims.array() <= 0).any()) return false;
+            for (const Vec3i& u : o.latticeCoords)
+                if ((u.array() < 0).any() || (u.array() >= o.latticeDims.array()).any()) return false;
+            for (const std::array<int, 3>& t : o.surfaceTriangles)
+                for (const int v : t)
+                    if (v < 0 || static_cast<std::size_t>(v) >= o.surfaceVertices.size()) return false;
+        }
+        if (o.body.positions.size() != n || o.body.velocities.size() != n || o.body.deltaGamma[0].size() != n)
+            return false;
     }
     return true;
 }
@@ -578,15 +729,33 @@ bool Simulation::stateFits(const std::vector<ObjectState>& states) const {
 void Simulation::restoreState(int frame, std::vector<ObjectState> states) {
     DGV_CHECK(stateFits(states));
     DGV_CHECK(frame >= mScene.frameStart);
-    for (std::size_t i = 0; i < mBodies.size(); ++i)
-        if (mBodies[i]) mBodies[i]->restoreState(std::move(states[i].body));
+    for (std::size_t i = 0; i < mBodies.size(); ++i) {
+        if (!mBodies[i]) continue;
+        ObjectState& o = states[i];
+        if (o.remaps == mRemapped[i].count && (o.remaps == 0 || o.latticeCoords == mRemapped[i].lattice->coords)) {
+            mBodies[i]->restoreState(std::move(o.body));
+            continue;
+        }
+        Lattice lat;
+        if (o.remaps > 0) {
+            std::vector<unsigned char> mask(static_cast<std::size_t>(o.latticeDims.prod()), 0);
+            lat.dims = o.latticeDims;
+            for (const Vec3i& u : o.latticeCoords) mask[at(lat.linearIndex(u))] = 1;
+            lat = buildLattice(o.latticeOrigin, o.latticeSpacing, o.latticeDims, mask);
+            DGV_CHECK(lat.coords == o.latticeCoords);
+        }
+        TriangleMesh surface;
+        surface.vertices = std::move(o.surfaceVertices);
+        surface.triangles = std::move(o.surfaceTriangles);
+        installLattice(i, std::move(lat), std::move(o.body), std::move(surface), o.remaps);
+    }
     mFrame = frame;
 }
 
 std::string statsCsvHeader() {
     return "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
            "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps,"
-           "flipped_triangles,torn_edges,surface_stretch";
+           "flipped_triangles,torn_edges,surface_stretch,reparametrisations";
 }
 
 Real FrameStats::contactPrecision() const {
@@ -599,12 +768,12 @@ Real FrameStats::contactRecall() const {
 
 std::string statsCsvRow(const FrameStats& s) {
     char buf[640];
-    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d,%lld,%lld,%.4g", s.frame, s.time,
+    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d,%lld,%lld,%.4g,%lld", s.frame, s.time,
                   s.kineticEnergy, s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift,
                   static_cast<long long>(s.invertedCells), static_cast<long long>(s.contacts),
                   static_cast<long long>(s.limitedPoints), s.stepMs, s.maxPenetration, s.contactPrecision(),
                   s.contactRecall(), s.substeps, static_cast<long long>(s.flippedTriangles),
-                  static_cast<long long>(s.tornEdges), s.surfaceStretch);
+                  static_cast<long long>(s.tornEdges), s.surfaceStretch, static_cast<long long>(s.reparametrisations));
     return buf;
 }
 

@@ -9,6 +9,7 @@
 
 #include "base/types.hpp"
 #include "dynamics/forces.hpp"
+#include "dynamics/reparametrise.hpp"
 #include "dynamics/stepper.hpp"
 #include "geom/embedding.hpp"
 #include "geom/lattice.hpp"
@@ -54,6 +55,9 @@ struct FrameStats {
     Index flippedTriangles = 0;
     Index tornEdges = 0;
     Real surfaceStretch = 0;       ///< worst edge stretch against its frames' (torn past kTearRatio)
+    /// Bodies re-voxelised in their current shape at the frame's start (docs/math.md,
+    /// "Re-parametrisation").
+    Index reparametrisations = 0;
 };
 
 class GlnNetwork;
@@ -96,12 +100,32 @@ public:
     struct ObjectState {
         bool present = false;
         DeformableBodyState body;
+        /// The body's lattice when it has been re-parametrised (remaps > 0), and its surface's
+        /// rest vertices on it (empty without a surface): the state lives on that lattice.
+        int remaps = 0;
+        Vec3 latticeOrigin = Vec3::Zero();
+        Real latticeSpacing = 0;
+        Vec3i latticeDims = Vec3i::Zero();
+        std::vector<Vec3i> latticeCoords;
+        std::vector<Vec3> surfaceVertices;
+        std::vector<std::array<int, 3>> surfaceTriangles;
     };
     std::vector<ObjectState> saveState() const;
     bool stateFits(const std::vector<ObjectState>& states) const;
     void restoreState(int frame, std::vector<ObjectState> states);
     /// The body of scene object i, or nullptr.
     const DeformableBody* body(std::size_t object) const;
+    /// The surface object i renders now, on its body's lattice: the rest mesh and embedding set
+    /// by setSurface until the body is re-parametrised, then the surface as it was at the last
+    /// remap, embedded in the new lattice (nullptr: no surface).
+    const TriangleMesh* surfaceMesh(std::size_t object) const;
+    const MeshEmbedding* surfaceEmbedding(std::size_t object) const;
+    /// How often object i's body has been re-voxelised in its current shape (docs/math.md,
+    /// "Re-parametrisation"). Goo (no stiffness, no pins) is, when its lattice distorts past
+    /// `reparametriseBound()`; other bodies never are.
+    int reparametrisations(std::size_t object) const;
+    const ReparametriseBound& reparametriseBound() const { return mRemapBound; }
+    void setReparametriseBound(const ReparametriseBound& b) { mRemapBound = b; }
 
     /// Turns a closed triangle mesh into a signed-distance grid (world units, negative inside)
     /// of voxel `voxelSize`, exact `bandVoxels` voxels out and filled inside: the app passes
@@ -109,6 +133,16 @@ public:
     /// (collision.objects) only when it is set.
     using SurfaceDistance = std::function<SdfGrid(const TriangleMesh& mesh, Real voxelSize, int bandVoxels)>;
     void setSurfaceDistance(SurfaceDistance f) { mSurfaceDistance = std::move(f); }
+    /// Meshes the zero isosurface of a signed-distance grid: the app passes io's levelSetMesh.
+    /// With it and the surface distance set, a re-parametrised body's surface is taken from its
+    /// volume at each remap (volumeSurface) instead of carrying the old mesh on.
+    using LevelSetMesher = std::function<TriangleMesh(const SdfGrid& grid)>;
+    void setLevelSetMesher(LevelSetMesher f) { mLevelSetMesher = std::move(f); }
+    /// The surface of body i's material from its volume (docs/math.md, "The surface from the
+    /// volume"): the deformed lattice's outer cell faces as a level set on its spacing, moved
+    /// out by the half voxel the material reaches beyond its lattice points, meshed and smoothed.
+    /// Empty without the two callbacks.
+    TriangleMesh volumeSurface(std::size_t i) const;
     /// Objects that collide with each other (collision.objects) must not start inside each
     /// other: throws InputError naming the scene, both objects and the overlap depth when some
     /// lattice point of one lies more than kStartOverlapVoxels of its voxels inside the other's
@@ -148,8 +182,30 @@ private:
         const MeshEmbedding* embedding = nullptr;
         SurfaceCheckSetup setup;
     };
-    std::vector<Surface> mSurfaces;  ///< per object
+    std::vector<Surface> mSurfaces;  ///< per object: what is checked and rendered now
+    std::vector<Surface> mOwnSurfaces;  ///< per object: setSurface's, on the object's own lattice
+    /// A re-parametrised object: its lattice and its surface on it.
+    struct Remapped {
+        int count = 0;
+        std::unique_ptr<Lattice> lattice;
+        TriangleMesh mesh;
+        MeshEmbedding embedding;
+    };
+    std::vector<Remapped> mRemapped;             ///< per object (count 0: on its own lattice)
+    std::vector<const Lattice*> mLattices;       ///< per object: its own lattice
+    std::vector<unsigned char> mRemapAllowed;    ///< per object: goo without pins
+    std::vector<std::string> mRemapRefused;      ///< per object: the last refusal logged
+    ReparametriseBound mRemapBound;
+    /// Re-voxelises the bodies whose lattices passed the bound; returns how many.
+    Index reparametriseDistorted(int frame);
+    /// Puts body i on `lattice` with `state` (remaps > 0) or back on its own lattice (remaps 0),
+    /// with `surface` (its rest shape on the new lattice) as what it renders.
+    void installLattice(std::size_t i, Lattice lattice, DeformableBodyState state, TriangleMesh surface, int remaps);
+    /// Object i's GLN contact detector on its body's current lattice (collision.detect = gln).
+    void attachNetwork(std::size_t i);
+    bool mGlnDetect = false;
     SurfaceDistance mSurfaceDistance;
+    LevelSetMesher mLevelSetMesher;
     bool mObjectContact = false;  ///< collision.objects and at least two bodies
     const SceneDesc& mScene;
     ForceField mField;

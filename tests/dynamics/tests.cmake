@@ -8,5 +8,6 @@ list(APPEND DGV_TEST_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/test_body_state.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_plastic.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_load_modes.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_reparametrise.cpp
   ${CMAKE_CURRENT_LIST_DIR}/bench_forces.cpp
 )

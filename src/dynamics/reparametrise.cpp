@@ -1,0 +1,371 @@
+// Re-parametrisation of a flowing body (reparametrise.hpp).
+
+#include "dynamics/reparametrise.hpp"
+
+#include "base/parallel.hpp"
+#include "deform/volume.hpp"
+#include "dynamics/body.hpp"
+#include <cstdio>
+#include "dynamics/stepper.hpp"
+#include "geom/geometric_state.hpp"
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace dgv {
+
+namespace {
+inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+
+// The six tetrahedra of a cell along its diagonal from corner 0 to corner 7 (corner k at offset
+// (k & 1, (k >> 1) & 1, (k >> 2) & 1)): one per order of the three axes. Neighbouring cells
+// split their shared face along the same diagonal, so the tetrahedra of a lattice leave no gap.
+constexpr std::array<std::array<int, 4>, 6> kTets = {
+    {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}}};
+
+// A sample of the old shape: the four old points of the tetrahedron it lies in and its
+// barycentric weights (ids[0] = kNoPoint: outside every tetrahedron).
+struct Sample {
+    std::array<Index, 4> ids{{kNoPoint, kNoPoint, kNoPoint, kNoPoint}};
+    std::array<Real, 4> w{{0, 0, 0, 0}};
+    bool inside() const { return ids[0] != kNoPoint; }
+};
+
+// Sub-samples per cell along each axis when measuring how much of a new cell the old shape covers.
+constexpr int kSub = 3;
+constexpr int kSubSamples = kSub * kSub * kSub;
+
+// Calls f(ids, v0, M⁻¹, lo, hi) for every tetrahedron of the old cells that is not flat, in cell
+// order: its four point ids, its first vertex, the inverse of its edge matrix and its bounds.
+template <typename F>
+void forEachTetrahedron(const LatticeCells& cells, const std::vector<Vec3>& x, Real h, F&& f) {
+    for (Index c = 0; c < cells.size(); ++c) {
+        const std::array<Index, 8>& k = cells.corners[at(c)];
+        for (const std::array<int, 4>& t : kTets) {
+            const std::array<Index, 4> ids{{k[at(t[0])], k[at(t[1])], k[at(t[2])], k[at(t[3])]}};
+            const Vec3& v0 = x[at(ids[0])];
+            Mat3 m;
+            m << x[at(ids[1])] - v0, x[at(ids[2])] - v0, x[at(ids[3])] - v0;
+            if (!(std::abs(m.determinant()) > 1e-14 * h * h * h)) continue;  // a flat tetrahedron holds nothing
+            Vec3 lo = v0, hi = v0;
+            for (int j = 1; j < 4; ++j) {
+                lo = lo.cwiseMin(x[at(ids[at(j)])]);
+                hi = hi.cwiseMax(x[at(ids[at(j)])]);
+            }
+            f(ids, v0, Mat3(m.inverse()), lo, hi);
+        }
+    }
+}
+
+// Whether p lies in the tetrahedron (ids, v0, M⁻¹); if so its barycentric weights go to s.
+bool barycentric(const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& p, Sample& s) {
+    constexpr Real eps = 1e-10;
+    const Vec3 l = mi * (p - v0);
+    const Real l0 = 1 - l.sum();
+    if (l.minCoeff() < -eps || l0 < -eps) return false;
+    s.ids = ids;
+    s.w = {l0, l.x(), l.y(), l.z()};
+    return true;
+}
+
+Vec3 interpolate(const Sample& s, const std::vector<Vec3>& v) {
+    Vec3 r = Vec3::Zero();
+    for (int j = 0; j < 4; ++j) r += s.w[at(j)] * v[at(s.ids[at(j)])];
+    return r;
+}
+}  // namespace
+
+LatticeDistortion latticeDistortion(const DeformableBody& body) {
+    const GeometricState& gs = body.state();
+    const Real h = body.lattice().spacing;
+    const Index n = body.lattice().size();
+    struct Acc {
+        Real gamma = 0, aspect = 1, det = std::numeric_limits<Real>::infinity();
+    };
+    const Acc r = parallelReduce(
+        n, Acc(),
+        [&](Acc& acc, Index p) {
+            Real g2 = 0;
+            for (std::size_t c = 0; c < 3; ++c) g2 += gs.christoffel[c][at(p)].squaredNorm();
+            acc.gamma = std::max(acc.gamma, std::sqrt(g2));
+            Mat3 f;
+            f << gs.tangent[0][at(p)], gs.tangent[1][at(p)], gs.tangent[2][at(p)];
+            f /= h;
+            acc.det = std::min(acc.det, f.determinant());
+            const Vec3 sv = Eigen::JacobiSVD<Mat3>(f).singularValues();
+            acc.aspect = std::max(acc.aspect, sv[2] > 0 ? sv[0] / sv[2] : std::numeric_limits<Real>::infinity());
+        },
+        [](const Acc& a, const Acc& b) {
+            Acc c;
+            c.gamma = std::max(a.gamma, b.gamma);
+            c.aspect = std::max(a.aspect, b.aspect);
+            c.det = std::min(a.det, b.det);
+            return c;
+        });
+    LatticeDistortion d;
+    d.maxGamma = r.gamma;
+    d.maxAspect = r.aspect;
+    d.minFrameDet = n > 0 ? r.det : 1;
+    return d;
+}
+
+Reparametrisation reparametrise(const DeformableBody& body) {
+    Reparametrisation out;
+    const DynamicsSettings& set = body.settings();
+    if (body.anyPinned()) {
+        out.refused = "it is pinned (a remap does not yet carry pins)";
+        return out;
+    }
+    if (set.shapeStiffness > 0) {
+        out.refused = "it has a rest shape (stiffness; a remap carries goo only)";
+        return out;
+    }
+    const Lattice& old = body.lattice();
+    const std::vector<Vec3>& x = body.positions();
+    const std::vector<Vec3>& v = body.velocities();
+    const Real h = old.spacing;
+    const LatticeCells& cells = body.cells();
+    if (cells.size() == 0) {
+        out.refused = "it has no complete cell";
+        return out;
+    }
+
+    // A world-aligned grid of spacing h around the body (a margin of one spacing each side).
+    Vec3 lo = x.front(), hi = x.front();
+    for (const Vec3& p : x) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+    }
+    Vec3 origin;
+    Vec3i dims;
+    for (int d = 0; d < 3; ++d) {
+        origin[d] = (std::floor(lo[d] / h) - 1) * h;
+        dims[d] = static_cast<int>(std::floor((hi[d] - origin[d]) / h)) + 3;
+    }
+    const Vec3i cellDims = dims - Vec3i::Ones();
+    auto cellIndex = [&](const Vec3i& w) { return at(w.x() + Index(cellDims.x()) * (w.y() + Index(cellDims.y()) * w.z())); };
+    auto gridIndex = [&](const Vec3i& u) { return at(u.x() + Index(dims.x()) * (u.y() + Index(dims.y()) * u.z())); };
+
+    // How much of each new cell the old shape covers, by kSub³ samples per cell, and the mean
+    // velocity of the samples inside.
+    const Index cellCount = Index(cellDims.prod());
+    std::vector<unsigned char> covered(at(cellCount * kSubSamples), 0);
+    std::vector<int> inside(at(cellCount), 0);
+    std::vector<Vec3> velocitySum(at(cellCount), Vec3::Zero());
+    const Vec3i fineDims = kSub * cellDims;
+    forEachTetrahedron(cells, x, h, [&](const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& tlo,
+                                        const Vec3& thi) {
+        Vec3i a, b;
+        for (int d = 0; d < 3; ++d) {
+            a[d] = std::max(0, static_cast<int>(std::ceil((tlo[d] - origin[d]) / h * kSub - Real(0.5))));
+            b[d] = std::min(fineDims[d] - 1, static_cast<int>(std::floor((thi[d] - origin[d]) / h * kSub - Real(0.5))));
+        }
+        for (int kk = a.z(); kk <= b.z(); ++kk)
+            for (int jj = a.y(); jj <= b.y(); ++jj)
+                for (int ii = a.x(); ii <= b.x(); ++ii) {
+                    const Vec3i cell(ii / kSub, jj / kSub, kk / kSub);
+                    const std::size_t c = cellIndex(cell);
+                    const std::size_t f = c * kSubSamples + at((ii % kSub) + kSub * ((jj % kSub) + kSub * (kk % kSub)));
+                    if (covered[f]) continue;
+                    const Vec3 p = origin + (h / kSub) * (Vec3(ii, jj, kk) + Vec3::Constant(Real(0.5)));
+                    Sample s;
+                    if (!barycentric(ids, v0, mi, p, s)) continue;
+                    covered[f] = 1;
+                    ++inside[c];
+                    velocitySum[c] += interpolate(s, v);
+                }
+    });
+    // The new cells: the most covered ones (ranked by their own samples, ties by their six
+    // neighbours'), as many as make the complete cells' total closest to the body's volume;
+    // the new points: their corners. A cell between chosen ones (a gap of under a voxel between
+    // two parts of the shape) is complete too and counts, so the count is searched for.
+    Real restTotal = 0;
+    for (Real r : body.restVolumes()) restTotal += r;
+    const Real target = restTotal / (h * h * h);
+    std::vector<std::pair<long, Index>> ranked;  // (−key, cell)
+    for (int k = 0; k < cellDims.z(); ++k)
+        for (int j = 0; j < cellDims.y(); ++j)
+            for (int i = 0; i < cellDims.x(); ++i) {
+                const Vec3i w(i, j, k);
+                const int own = inside[cellIndex(w)];
+                if (own == 0) continue;
+                long key = long(own) * 7 * kSubSamples;
+                for (int d = 0; d < 3; ++d)
+                    for (int sgn = -1; sgn <= 1; sgn += 2) {
+                        Vec3i q = w;
+                        q[d] += sgn;
+                        if (q[d] >= 0 && q[d] < cellDims[d]) key += inside[cellIndex(q)];
+                    }
+                ranked.emplace_back(-key, Index(cellIndex(w)));
+            }
+    std::sort(ranked.begin(), ranked.end());
+    if (ranked.empty()) {
+        out.refused = "no cell of the new lattice lies inside its shape";
+        return out;
+    }
+    std::vector<unsigned char> mask(at(Index(dims.prod())), 0);
+    auto choose = [&](std::size_t count) {  // the mask of the first `count` ranked cells; its complete cells
+        std::fill(mask.begin(), mask.end(), 0);
+        for (std::size_t r = 0; r < count; ++r) {
+            const Index c = ranked[r].second;
+            const Vec3i w(int(c % cellDims.x()), int((c / cellDims.x()) % cellDims.y()),
+                          int(c / (Index(cellDims.x()) * cellDims.y())));
+            for (int q = 0; q < 8; ++q) mask[gridIndex(w + Vec3i(q & 1, (q >> 1) & 1, (q >> 2) & 1))] = 1;
+        }
+        Index complete = 0;
+        for (int k = 0; k < cellDims.z(); ++k)
+            for (int j = 0; j < cellDims.y(); ++j)
+                for (int i = 0; i < cellDims.x(); ++i) {
+                    bool all = true;
+                    for (int q = 0; q < 8 && all; ++q) all = mask[gridIndex(Vec3i(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1)))] != 0;
+                    complete += all ? 1 : 0;
+                }
+        return complete;
+    };
+    // The complete cells grow with the count: the least count that reaches the target, or the
+    // one before it if that is closer.
+    std::size_t least = 1, most = ranked.size();
+    while (least < most) {
+        const std::size_t mid = (least + most) / 2;
+        if (Real(choose(mid)) >= target) most = mid;
+        else least = mid + 1;
+    }
+    std::size_t count = least;
+    if (count > 1 && std::abs(Real(choose(count - 1)) - target) < std::abs(Real(choose(count)) - target)) --count;
+    (void)choose(count);
+    Lattice grid = buildLattice(origin, h, dims, mask);
+    const LatticeCells newCells = buildCells(grid);
+    out.cells = newCells.size();
+
+    // The spacing that makes the new cells' total the body's rest volume.
+    const Real dilation = std::cbrt(restTotal / (static_cast<Real>(newCells.size()) * h * h * h));
+    if (!(std::abs(dilation - 1) <= kMaxRemapDilation)) {
+        char why[200];
+        std::snprintf(why, sizeof why, "its new cells would hold %.1f %% of its volume (parts under a voxel thick)",
+                      100 / (dilation * dilation * dilation));
+        out.refused = why;
+        return out;
+    }
+    out.pivot = body.centre();
+    out.dilation = dilation;
+    grid.originWorld = out.pivot + dilation * (origin - out.pivot);
+    grid.spacing = h * dilation;
+
+    // Velocities: interpolated in the old tetrahedra at the new points; a new point outside them
+    // (a corner of a cell more than half inside) takes the mean of its cells' samples.
+    std::vector<Sample> corners(at(Index(dims.prod())));
+    forEachTetrahedron(cells, x, h, [&](const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& tlo,
+                                        const Vec3& thi) {
+        Vec3i a, b;
+        for (int d = 0; d < 3; ++d) {
+            a[d] = std::max(0, static_cast<int>(std::ceil((tlo[d] - origin[d]) / h)));
+            b[d] = std::min(dims[d] - 1, static_cast<int>(std::floor((thi[d] - origin[d]) / h)));
+        }
+        for (int kk = a.z(); kk <= b.z(); ++kk)
+            for (int jj = a.y(); jj <= b.y(); ++jj)
+                for (int ii = a.x(); ii <= b.x(); ++ii) {
+                    Sample& s = corners[gridIndex(Vec3i(ii, jj, kk))];
+                    if (!s.inside() && mask[gridIndex(Vec3i(ii, jj, kk))])
+                        (void)barycentric(ids, v0, mi, origin + h * Vec3(ii, jj, kk), s);  // the old shape's grid
+                }
+    });
+    const Index n = grid.size();
+    std::vector<Vec3> vNew(at(n), Vec3::Zero());
+    parallelFor(n, [&](Index p) {
+        const Vec3i& u = grid.coords[at(p)];
+        const Sample& s = corners[gridIndex(u)];
+        if (s.inside()) {
+            vNew[at(p)] = interpolate(s, v);
+            return;
+        }
+        Vec3 total = Vec3::Zero();
+        int count = 0;
+        for (int c = 0; c < 8; ++c) {
+            const Vec3i w = u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            if ((w.array() < 0).any() || (w.array() >= cellDims.array()).any()) continue;
+            total += velocitySum[cellIndex(w)];
+            count += inside[cellIndex(w)];
+        }
+        vNew[at(p)] = count > 0 ? Vec3(total / count) : Vec3::Zero();
+    });
+    // The same momentum as the old points carry over the last step.
+    const std::vector<Real> mOld = body.masses();
+    const std::vector<Real> mNew = pointMasses(grid, set.density, MassRule::CellShare);
+    Vec3 pOld = Vec3::Zero(), pNew = Vec3::Zero();
+    Real massOld = 0, massNew = 0;
+    for (Index p = 0; p < old.size(); ++p) {
+        pOld += mOld[at(p)] * v[at(p)];
+        massOld += mOld[at(p)];
+    }
+    for (Index p = 0; p < n; ++p) {
+        pNew += mNew[at(p)] * vNew[at(p)];
+        massNew += mNew[at(p)];
+    }
+    const Vec3 shift = pOld / massOld - pNew / massNew;
+    for (Vec3& w : vNew) w += shift;
+    // ... and the same angular momentum about the centre: the interpolation smooths the velocity
+    // at the lattice scale, which took 3 % of a wound-up ball's spin; the rotation δω that gives
+    // it back goes into the point velocities and into the flex's spin below.
+    const std::vector<Vec3> xNew = restPositions(grid);
+    const Vec3 cOld = centreOfMass(mOld, x), cNew = centreOfMass(mNew, xNew);
+    Vec3 lOld = Vec3::Zero(), lNew = Vec3::Zero();
+    Mat3 inertia = Mat3::Zero();
+    for (Index p = 0; p < old.size(); ++p) lOld += mOld[at(p)] * (x[at(p)] - cOld).cross(v[at(p)]);
+    for (Index p = 0; p < n; ++p) {
+        const Vec3 r = xNew[at(p)] - cNew;
+        lNew += mNew[at(p)] * r.cross(vNew[at(p)]);
+        inertia += mNew[at(p)] * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+    }
+    const Vec3 spin = inertia.ldlt().solve(lOld - lNew);
+    for (Index p = 0; p < n; ++p) vNew[at(p)] += spin.cross(xNew[at(p)] - cNew);
+    Mat3 spinMatrix;  // spinMatrix r = spin × r
+    spinMatrix << 0, -spin.z(), spin.y(), spin.z(), 0, -spin.x(), -spin.y(), spin.x(), 0;
+
+    // The state on the new lattice, at its rest positions.
+    DeformableBodyState& s = out.state;
+    s.positions = xNew;
+    s.velocities = vNew;
+    const Real dt = body.lastStepLength();
+    s.lastStep = dt;
+    s.freeFlight = body.freeFlight();
+    for (auto& g : s.deltaGamma) g.assign(at(n), Mat3::Zero());
+    if (dt > 0) {
+        // The twist's rate: the connection change the points' velocities make over one step (no
+        // affine motion changes Γ, so this is the non-affine part alone); the frames before
+        // the last step from the same velocities.
+        std::vector<Vec3> ahead(at(n)), behind(at(n));
+        parallelFor(n, [&](Index p) {
+            ahead[at(p)] = s.positions[at(p)] + dt * vNew[at(p)];
+            behind[at(p)] = s.positions[at(p)] - dt * vNew[at(p)];
+        });
+        GeometricState now, next, prev;
+        computeGeometricState(grid, s.positions, now, BoundaryStencils::Realisable);
+        computeGeometricState(grid, ahead, next, BoundaryStencils::Realisable);
+        computeGeometricState(grid, behind, prev, BoundaryStencils::Realisable);
+        for (std::size_t c = 0; c < 3; ++c)
+            parallelFor(n, [&](Index p) { s.deltaGamma[c][at(p)] = next.christoffel[c][at(p)] - now.christoffel[c][at(p)]; });
+        s.tangentPrev = prev.tangent;
+        s.havePrev = true;
+    }
+    s.contact.assign(at(n), 0);
+    s.contactDepth.assign(at(n), 0);
+    s.centre = centreOfMass(mNew, s.positions);
+    s.centreVelocity = body.centreVelocity();
+    // The new rest shape is the current one: A = 1, and the flex velocity is the old one's
+    // velocity gradient Ȧ A⁻¹ (trace-free: tangent to SL(3) at 1).
+    s.flex = Mat3::Identity();
+    Mat3 l = body.flexVelocity() * body.flex().inverse();
+    l -= (l.trace() / 3) * Mat3::Identity();
+    s.flexVelocity = l + spinMatrix;
+    s.halfStep = body.halfStep();
+    s.displacement.assign(at(n), Vec3::Zero());
+    s.displacementPrev.assign(at(n), Vec3::Zero());
+    out.lattice = std::move(grid);
+    return out;
+}
+
+}  // namespace dgv
