@@ -73,8 +73,9 @@ std::vector<Vec3> vertexNormals(const TriangleMesh& mesh);
 
 /// Taubin's λ|μ smoothing: `iterations` pairs of umbrella steps v += λ (mean of v's edge
 /// neighbours − v), then the same with μ < −λ, which undoes the shrinking of the first: a
-/// low-pass filter on the surface that takes a staircase off and keeps the volume within a
-/// fraction of a per cent (a voxelised ball: tests/geom/test_triangle_mesh.cpp).
+/// low-pass filter on the surface that takes a staircase off and keeps the volume within a per
+/// cent (the outer faces of a voxel ball of radius 8, 10 pairs: volume +0.6 %, the radial spread
+/// of its vertices 0.45 → 0.12 voxel; tests/geom/test_triangle_mesh.cpp).
 void smoothTaubin(TriangleMesh& mesh, int iterations, Real lambda = 0.5, Real mu = -0.53);
 
 }  // namespace dgv

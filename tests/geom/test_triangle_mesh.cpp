@@ -1,11 +1,14 @@
-// Tests of src/geom/triangle_mesh.hpp: topology report, volume, transforms, normals.
+// Tests of src/geom/triangle_mesh.hpp: topology report, volume, transforms, normals, smoothing.
 #include <catch2/catch.hpp>
 
 #include <Eigen/Geometry>
 
+#include "dynamics/lattices.hpp"
 #include "geom/primitives.hpp"
 #include "geom/triangle_mesh.hpp"
+#include "sim/body_contact.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 using namespace dgv;
@@ -107,4 +110,34 @@ TEST_CASE("triangle_mesh: vertex normals of a sphere point outward", "[geom]") {
         worst = std::min(worst, n[v].dot(m.vertices[v].normalized()));
     }
     CHECK(worst > 0.999);
+}
+
+TEST_CASE("triangle_mesh: Taubin smoothing takes a voxel staircase off and keeps the volume", "[geom]") {
+    // The outer cell faces of a voxel ball of radius 8 (the surface goo's volume gives, before
+    // smoothing: sim/simulation volumeSurface).
+    const Lattice lat = test::sphereLattice(8, 1.0, Vec3::Constant(-8));
+    TriangleMesh m = latticeSurface(lat, restPositions(lat));
+    auto radialSpread = [](const TriangleMesh& mesh) {
+        Real mean = 0, sq = 0;
+        for (const Vec3& v : mesh.vertices) mean += v.norm();
+        mean /= static_cast<Real>(mesh.vertices.size());
+        for (const Vec3& v : mesh.vertices) sq += (v.norm() - mean) * (v.norm() - mean);
+        return std::sqrt(sq / static_cast<Real>(mesh.vertices.size()));
+    };
+    const Real v0 = meshSignedVolume(m), s0 = radialSpread(m);
+    smoothTaubin(m, 10);
+    const Real v1 = meshSignedVolume(m), s1 = radialSpread(m);
+    INFO("volume " << v0 << " -> " << v1 << ", radial spread " << s0 << " -> " << s1);
+    CHECK(std::abs(v1 / v0 - 1) < 0.01);
+    CHECK(s1 < 0.5 * s0);
+    CHECK(analyseMesh(m).closed);
+    // A smooth mesh hardly moves: a UV sphere of radius 1.
+    TriangleMesh sphere = makeSphere(1.0);
+    const TriangleMesh before = sphere;
+    smoothTaubin(sphere, 10);
+    Real moved = 0;
+    for (std::size_t i = 0; i < sphere.vertices.size(); ++i)
+        moved = std::max(moved, (sphere.vertices[i] - before.vertices[i]).norm());
+    INFO("sphere: largest move " << moved);
+    CHECK(moved < 0.02);
 }
