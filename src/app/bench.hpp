@@ -35,5 +35,6 @@ void gln(std::ostream& out, const BenchOptions& options);          // bench_gln.
 void step(std::ostream& out, const BenchOptions& options);         // bench_step.cpp
 void vdb(std::ostream& out, const BenchOptions& options);          // bench_vdb.cpp
 void volume(std::ostream& out, const BenchOptions& options);       // bench_volume.cpp
+void reparametrise(std::ostream& out, const BenchOptions& options);  // bench_reparametrise.cpp
 
 }  // namespace dgv::bench
