@@ -51,6 +51,11 @@ struct ReparametriseBound {
 /// The largest change of the cell spacing a remap may make (|dilation − 1|): beyond it the new
 /// cubes cannot hold the shape's volume (parts under a voxel thick) and the remap is refused.
 inline constexpr Real kMaxRemapDilation = 0.02;
+/// The most of a body's volume a remap may leave more than a cell away from the new cells
+/// (Reparametrisation::mismatch).
+inline constexpr Real kMaxRemapMismatch = 0.05;
+/// The least share of a body's volume the samples of the old shape must see (Reparametrisation::sampled).
+inline constexpr Real kMinRemapSampled = 0.9;
 
 /// A body re-voxelised in its current shape.
 struct Reparametrisation {
@@ -60,6 +65,8 @@ struct Reparametrisation {
     Vec3 pivot = Vec3::Zero();   ///< world points of the old shape map to pivot + dilation (w − pivot)
     Real dilation = 1;
     Index cells = 0;             ///< complete cells of the new lattice
+    Real mismatch = 0;           ///< the old shape's volume more than a cell from every new cell / the volume
+    Real sampled = 0;            ///< the old shape's volume the samples see / the volume
     std::string refused;         ///< why the body cannot be re-parametrised (then nothing else is set)
 };
 

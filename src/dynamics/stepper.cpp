@@ -207,6 +207,68 @@ bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::arr
     return limited;
 }
 
+int viscousTwistStep(const Lattice& lat, Real alpha, std::array<std::vector<Mat3>, 3>& dGamma) {
+    const Index n = lat.size();
+    if (!(alpha > 0) || n == 0) return 0;
+    using Vec27 = Eigen::Matrix<Real, 27, 1>;
+    auto get = [&](Index p) {
+        Vec27 v;
+        for (std::size_t c = 0; c < 3; ++c) v.segment<9>(9 * static_cast<Index>(c)) = Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(dGamma[c][at(p)].data());
+        return v;
+    };
+    std::vector<Vec27> b(at(n)), x(at(n)), r(at(n)), z(at(n)), d(at(n)), q(at(n));
+    std::vector<Real> diag(at(n));
+    parallelFor(n, [&](Index p) {
+        int k = 0;
+        for (const Index nb : lat.neighbours[at(p)]) k += nb != kNoPoint ? 1 : 0;
+        diag[at(p)] = 1 + alpha * k;
+        b[at(p)] = get(p);
+    });
+    auto apply = [&](const std::vector<Vec27>& in, std::vector<Vec27>& out) {
+        parallelFor(n, [&](Index p) {
+            Vec27 acc = diag[at(p)] * in[at(p)];
+            for (const Index nb : lat.neighbours[at(p)])
+                if (nb != kNoPoint) acc -= alpha * in[at(nb)];
+            out[at(p)] = acc;
+        });
+    };
+    auto dot = [&](const std::vector<Vec27>& u, const std::vector<Vec27>& v) {
+        return parallelReduce(
+            n, Real(0), [&](Real& acc, Index p) { acc += u[at(p)].dot(v[at(p)]); }, [](Real a, Real c) { return a + c; });
+    };
+    // x0 = D⁻¹ b (the Jacobi step): r = b − A x0.
+    parallelFor(n, [&](Index p) { x[at(p)] = b[at(p)] / diag[at(p)]; });
+    apply(x, q);
+    parallelFor(n, [&](Index p) {
+        r[at(p)] = b[at(p)] - q[at(p)];
+        z[at(p)] = r[at(p)] / diag[at(p)];
+        d[at(p)] = z[at(p)];
+    });
+    const Real bb = dot(b, b);
+    Real rz = dot(r, z);
+    int it = 0;
+    constexpr int kMaxIterations = 200;
+    while (it < kMaxIterations && dot(r, r) > 1e-16 * bb) {
+        apply(d, q);
+        const Real step = rz / dot(d, q);
+        parallelFor(n, [&](Index p) {
+            x[at(p)] += step * d[at(p)];
+            r[at(p)] -= step * q[at(p)];
+            z[at(p)] = r[at(p)] / diag[at(p)];
+        });
+        const Real rzNew = dot(r, z);
+        const Real beta = rzNew / rz;
+        rz = rzNew;
+        parallelFor(n, [&](Index p) { d[at(p)] = z[at(p)] + beta * d[at(p)]; });
+        ++it;
+    }
+    parallelFor(n, [&](Index p) {
+        for (std::size_t c = 0; c < 3; ++c)
+            Eigen::Map<Eigen::Matrix<Real, 9, 1>>(dGamma[c][at(p)].data()) = x[at(p)].segment<9>(9 * static_cast<Index>(c));
+    });
+    return it;
+}
+
 std::vector<std::string> DynamicsSettings::validate() const {
     std::vector<std::string> out;
     auto positive = [&](Real v, const char* name) {
@@ -217,6 +279,7 @@ std::vector<std::string> DynamicsSettings::validate() const {
     };
     positive(density, "density");
     nonNegative(damping, "damping");
+    nonNegative(viscosity, "viscosity");
     nonNegative(shapeStiffness, "stiffness");
     nonNegative(yieldStrain, "yield");
     if (yieldStrain > 0 && !(shapeStiffness > 0))
@@ -585,6 +648,8 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         for (int c = 0; c < 3; ++c) mDGamma[static_cast<std::size_t>(c)][i] = dg[static_cast<std::size_t>(c)];
     });
     report.limitedPoints = std::count(limited.begin(), limited.end(), 1);
+    // Viscosity: the viscous term on the twist rate, implicit (docs/math.md, "Viscosity").
+    if (mSet.viscosity > 0) (void)viscousTwistStep(mLat, mSet.viscosity * dt / (mLat.spacing * mLat.spacing), mDGamma);
     report.sumDeltaGamma2 = sumDeltaGamma2();
     report.twistSeconds = since(t);
 

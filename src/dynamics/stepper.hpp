@@ -76,6 +76,11 @@ struct DynamicsSettings {
     Real density = 1000;              ///< kg/m^3
     Real damping = 1;                 ///< ζ, 1/s: twist δΓ decays as exp(−ζ t); flex stretch rate too.
                                       ///< Goo with 0 flows forever after a push and folds (docs/math.md)
+    /// ν, m²/s: kinematic viscosity (docs/math.md, "Viscosity: the viscous stress on the twist
+    /// rate"). The viscous term ν ∇²v on the non-affine motion, which the twist carries, as an
+    /// implicit diffusion of δΓ over the lattice each step: stable at any ν, the lattice-scale
+    /// part damped most, affine motion (a spin) not at all. 0: none (the notes' goo).
+    Real viscosity = 0;
     Real shapeStiffness = 0;          ///< k, 1/s^2: restoring term toward the rest shape (jelly);
                                       ///< wobble frequency sqrt(k)/(2π) Hz
     /// Plasticity (docs/math.md, "Plasticity: the rest shape yields"), with shape memory only: the
@@ -158,6 +163,14 @@ struct DynamicsSettings {
 bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::array<Mat3, 3>& hessian,
                  const std::array<Mat3, 3>& gamma, Real dt, const DynamicsSettings& settings,
                  std::array<Mat3, 3>& dGamma);
+
+/// The viscous step of the twist rate (docs/math.md, "Viscosity"): solves (1 + α L) y = δΓ for
+/// each of the 27 components, L the lattice's graph Laplacian (Σ over a point's neighbours of
+/// y_p − y_q; no flux across the boundary) and α = ν δt / h², by Jacobi-preconditioned conjugate
+/// gradients to a relative residual of 1e-8, in place. Σ_p δΓ_p is kept (L's columns sum to 0)
+/// and no point's |δΓ| grows past the largest before (y is a weighted mean of δΓ). Deterministic.
+/// @return the CG iterations taken
+int viscousTwistStep(const Lattice& lat, Real alpha, std::array<std::vector<Mat3>, 3>& dGamma);
 
 /// One contact point of the affine contact response: its rest offset X̃ about the rest centre
 /// of mass, the collider's unit normal there and how deep the point is inside (> 0).

@@ -363,6 +363,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         o.object("material", [&](ObjectReader& m) {
             d.material.density = m.number("density", d.material.density, 0, HUGE_VAL, true);
             d.material.damping = m.number("damping", d.material.damping, 0, 1e6);
+            d.material.viscosity = m.number("viscosity", d.material.viscosity, 0, 1e6);
             d.material.stiffness = m.number("stiffness", d.material.stiffness, 0, 1e8);
             d.material.yield = m.number("yield", d.material.yield, 0, 10);
             if (d.material.yield > 0 && d.material.stiffness == 0)

@@ -40,6 +40,7 @@ struct PrimitiveDesc {
 struct MaterialDesc {
     Real density = 1000;        ///< kg/m^3
     Real damping = 1;           ///< 1/s: twist and flex stretch rates decay as exp(-damping t)
+    Real viscosity = 0;         ///< m²/s: kinematic viscosity (DynamicsSettings::viscosity)
     Real stiffness = 0;         ///< 1/s^2: shape memory (0: goo; > 0: jelly that wobbles back)
     Real yield = 0;             ///< plasticity: the largest elastic log strain (0: off; needs stiffness)
     Real volumeTolerance = 1e-5; ///< the volume projection's max |V/V0 − 1| per cell after a step

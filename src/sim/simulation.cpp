@@ -76,6 +76,7 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         DynamicsSettings set;
         set.density = o.material.density;
         set.damping = o.material.damping;
+        set.viscosity = o.material.viscosity;
         set.shapeStiffness = o.material.stiffness;
         set.yieldStrain = o.material.yield;
         set.volumeTolerance = o.material.volumeTolerance;
@@ -224,44 +225,50 @@ TriangleMesh Simulation::volumeSurface(std::size_t i) const {
     return m;
 }
 
+bool Simulation::reparametriseBody(std::size_t i, int frame, const std::string& why) {
+    const DeformableBody& b = *mBodies[i];
+    Reparametrisation r = reparametrise(b);
+    if (!r.refused.empty()) {
+        if (mRemapRefused[i].empty())
+            logInfo("frame " + std::to_string(frame) + ": object '" + mScene.objects[i].name + "' keeps its lattice (" +
+                    why + "): " + r.refused);
+        mRemapRefused[i] = r.refused;
+        return false;
+    }
+    mRemapRefused[i].clear();
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  "frame %d: object '%s' re-voxelised in its current shape (%s): %lld -> %lld points, spacing x %.5f, "
+                  "%.2f %% of its volume moved more than a cell, %.1f %% seen",
+                  frame, mScene.objects[i].name.c_str(), why.c_str(), static_cast<long long>(b.lattice().size()),
+                  static_cast<long long>(r.lattice.size()), r.dilation, 100 * r.mismatch, 100 * r.sampled);
+    logInfo(line);
+    // The surface from here on: the material's own, from its volume (or, without the callbacks
+    // that make it, the old surface carried on), in the new lattice's frame.
+    TriangleMesh surface;
+    if (i < mSurfaces.size() && mSurfaces[i].mesh) {
+        surface = volumeSurface(i);
+        if (surface.vertices.empty()) {
+            surface.triangles = mSurfaces[i].mesh->triangles;
+            deformVertices(*mSurfaces[i].embedding, b.state(), surface.vertices);
+        }
+        for (Vec3& v : surface.vertices) v = r.pivot + r.dilation * (v - r.pivot);
+    }
+    installLattice(i, std::move(r.lattice), std::move(r.state), std::move(surface), mRemapped[i].count + 1);
+    return true;
+}
+
 Index Simulation::reparametriseDistorted(int frame) {
     Index done = 0;
     for (std::size_t i = 0; i < mBodies.size(); ++i) {
         if (!mBodies[i] || i >= mRemapAllowed.size() || !mRemapAllowed[i]) continue;
         const DeformableBody& b = *mBodies[i];
-        if (b.lastStepLength() == 0 || !mRemapBound.exceeded(latticeDistortion(b))) continue;
-        Reparametrisation r = reparametrise(b);
-        if (!r.refused.empty()) {
-            if (mRemapRefused[i].empty())
-                logInfo("frame " + std::to_string(frame) + ": object '" + mScene.objects[i].name +
-                        "' keeps its lattice although it has distorted: " + r.refused);
-            mRemapRefused[i] = r.refused;
-            continue;
-        }
-        mRemapRefused[i].clear();
-        {
-            const LatticeDistortion d = latticeDistortion(b);
-            char line[320];
-            std::snprintf(line, sizeof line,
-                          "frame %d: object '%s' re-voxelised in its current shape (max |Γ| %.2f, frame aspect %.1f, "
-                          "min det %.2f): %lld -> %lld points, spacing x %.5f",
-                          frame, mScene.objects[i].name.c_str(), d.maxGamma, d.maxAspect, d.minFrameDet,
-                          static_cast<long long>(b.lattice().size()), static_cast<long long>(r.lattice.size()), r.dilation);
-            logInfo(line);
-        }
-        // The surface from here on: the material's own, from its volume (or, without the
-        // callbacks that make it, the old surface carried on), in the new lattice's frame.
-        TriangleMesh surface;
-        if (i < mSurfaces.size() && mSurfaces[i].mesh) {
-            surface = volumeSurface(i);
-            if (surface.vertices.empty()) {
-                surface.triangles = mSurfaces[i].mesh->triangles;
-                deformVertices(*mSurfaces[i].embedding, b.state(), surface.vertices);
-            }
-            for (Vec3& v : surface.vertices) v = r.pivot + r.dilation * (v - r.pivot);
-        }
-        installLattice(i, std::move(r.lattice), std::move(r.state), std::move(surface), mRemapped[i].count + 1);
-        ++done;
+        if (b.lastStepLength() == 0) continue;
+        const LatticeDistortion d = latticeDistortion(b);
+        if (!mRemapBound.exceeded(d)) continue;
+        char why[160];
+        std::snprintf(why, sizeof why, "max |Γ| %.2f, frame aspect %.1f, min det %.2f", d.maxGamma, d.maxAspect, d.minFrameDet);
+        if (reparametriseBody(i, frame, why)) ++done;
     }
     return done;
 }
@@ -569,22 +576,23 @@ FrameStats Simulation::advanceTo(int frame) {
     DGV_CHECK_EQ(frame, mFrame + 1);
     // Goo whose lattice no longer follows it is re-voxelised before the frame (a function of the
     // state, so a resumed run does the same).
-    const Index remaps = reparametriseDistorted(frame);
     // A frame that faults or tears its surface is simulated again from its start at twice the
     // substeps (docs/math.md, "Never a torn frame"): nothing of it has been written yet, and the
     // decision is a function of the state, so a resumed run retries the same way.
+    Index remaps = reparametriseDistorted(frame);
     int sub = frameSubsteps(frame);
     const int firstSub = sub;
     // A fixed count (max_substeps = substeps) stays fixed: such a frame fails without a retry.
     const int most = std::max(mScene.substeps, mScene.maxSubsteps);
     const int cap = most > mScene.substeps ? std::max(sub, kRetrySubstepFactor * most) : sub;
-    const std::vector<ObjectState> start = saveState();
+    std::vector<ObjectState> start = saveState();
+    std::vector<unsigned char> remappedForRetry(mBodies.size(), 0);
     std::string first;  // the first attempt's fault
     for (;;) {
         std::string fault;
+        int failed = -1;  // the body that failed, where known
         try {
             FrameStats s = simulateFrame(frame, sub);
-            int failed = -1;
             SurfaceCheck c;
             if (checkSurfaces(s, &failed, &c)) {
                 if (!first.empty()) {
@@ -605,9 +613,21 @@ FrameStats Simulation::advanceTo(int frame) {
             fault = what + faultHint(static_cast<std::size_t>(failed));
         } catch (const NumericalError& e) {
             fault = e.what();
+            failed = mFaultBody;
         }
         if (first.empty()) first = fault;
         restoreState(frame - 1, start);
+        // Goo that fails a frame is first re-voxelised at the frame's start and the frame tried
+        // again at the same substeps: a fresh lattice and surface, whatever the bound said.
+        if (failed >= 0 && static_cast<std::size_t>(failed) < mBodies.size() && mRemapAllowed[static_cast<std::size_t>(failed)] &&
+            !remappedForRetry[static_cast<std::size_t>(failed)] && mBodies[static_cast<std::size_t>(failed)]->lastStepLength() > 0) {
+            remappedForRetry[static_cast<std::size_t>(failed)] = 1;
+            if (reparametriseBody(static_cast<std::size_t>(failed), frame, "it failed the frame")) {
+                ++remaps;
+                start = saveState();
+                continue;
+            }
+        }
         if (sub >= cap)
             throw NumericalError(fault + " (tried at " + std::to_string(firstSub) + " to " + std::to_string(sub) +
                                  " substeps; nothing of frame " + std::to_string(frame) + " was written)");
@@ -616,6 +636,7 @@ FrameStats Simulation::advanceTo(int frame) {
 }
 
 FrameStats Simulation::simulateFrame(int frame, int sub) {
+    mFaultBody = -1;
     FrameStats s;
     s.frame = frame;
     s.time = (frame - mScene.frameStart) / mScene.fps;
@@ -631,6 +652,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
                    std::to_string(sub) + ", object '" + mScene.objects[i].name + "'";
         };
         auto fault = [&](std::size_t i, const std::string& what) {
+            mFaultBody = static_cast<int>(i);
             return NumericalError("dynamics: " + where(i) + ": " + what + faultHint(i));
         };
         // Every body's prediction first, so the bodies meet each other where they are going.
@@ -648,7 +670,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             if (!r.fault.empty()) throw fault(i, r.fault);
             for (const Vec3& x : mBodies[i]->positions())
                 if (!allFiniteNoTrap(x))
-                    throw NumericalError("dynamics: " + where(i) + ": a position became non-finite; use more substeps or damping");
+                    throw fault(i, "a position became non-finite; use more substeps or damping");
             s.maxCellVolumeError = std::max(s.maxCellVolumeError, r.maxCellVolumeError);
             s.invertedCells = std::max(s.invertedCells, r.invertedCells);
             s.limitedPoints += r.limitedPoints;

@@ -198,6 +198,9 @@ private:
     ReparametriseBound mRemapBound;
     /// Re-voxelises the bodies whose lattices passed the bound; returns how many.
     Index reparametriseDistorted(int frame);
+    /// Re-voxelises body i (`why` goes into the log line); false (logged once) when refused.
+    bool reparametriseBody(std::size_t i, int frame, const std::string& why);
+    int mFaultBody = -1;  ///< the body the last NumericalError of simulateFrame names
     /// Puts body i on `lattice` with `state` (remaps > 0) or back on its own lattice (remaps 0),
     /// with `surface` (its rest shape on the new lattice) as what it renders.
     void installLattice(std::size_t i, Lattice lattice, DeformableBodyState state, TriangleMesh surface, int remaps);
