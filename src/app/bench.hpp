@@ -2,6 +2,7 @@
 // Benchmarks of `dgv bench <name>`: each prints "name: value unit" lines to `out`.
 // One file per benchmark: app/bench_<name>.cpp.
 
+#include "dynamics/forces.hpp"
 #include "geom/lattice.hpp"
 
 #include <ostream>
@@ -24,6 +25,9 @@ void resetPeakRss();
 /// A ball of material points: the grid points within `radius` voxels of the centre of an
 /// (ceil(2 radius) + 3)^3 grid, spacing h, centred on the world origin. (bench_common.cpp)
 Lattice ballLattice(Real radius, Real h = 1);
+/// The step benchmark's gentle vortex: axis y through (−0.2, 0, 0), radius 0.6 m, 0.6 m/s²
+/// (bench_common.cpp).
+ForceField gentleVortex();
 /// The median of `v` (the mean of the middle two for an even count; v non-empty). (bench_common.cpp)
 double median(std::vector<double> v);
 

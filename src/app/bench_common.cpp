@@ -21,6 +21,18 @@ void resetPeakRss() {
     if (clear) clear << "5";
 }
 
+ForceField gentleVortex() {
+    ForceField f;
+    ForceTerm t;
+    t.kind = ForceKind::Vortex;
+    t.centre = Vec3(-0.2, 0, 0);
+    t.axis = Vec3::UnitY();
+    t.radius = 0.6;
+    t.strength = Keyframes::constant(0.6);
+    f.add(t);
+    return f;
+}
+
 Lattice ballLattice(Real radius, Real h) {
     const int n = static_cast<int>(std::ceil(2 * radius)) + 3;
     const Vec3i dims(n, n, n);

@@ -39,14 +39,7 @@ void reparametrise(std::ostream& out, const BenchOptions& options) {
         const Lattice lat = withoutLoosePoints(ballLattice(r, h));
         DynamicsSettings settings;  // goo
         DeformableBody body(lat, restPositions(lat), settings);
-        ForceField f;
-        ForceTerm t;
-        t.kind = ForceKind::Vortex;
-        t.centre = Vec3(-0.2, 0, 0);
-        t.axis = Vec3::UnitY();
-        t.radius = 0.6;
-        t.strength = Keyframes::constant(0.6);
-        f.add(t);
+        const ForceField f = gentleVortex();
         const Real dt = 1.0 / 48;
         double stepSeconds = 0;
         constexpr int kSteps = 8;

@@ -34,14 +34,7 @@ void step(std::ostream& out, const BenchOptions& options) {
         DynamicsSettings settings;
         settings.frameSweepsAfter = 0;  // the frame sweeps from the first step, as in a body long in free flight
         DeformableBody body(lat, restPositions(lat), settings);
-        ForceField f;
-        ForceTerm t;
-        t.kind = ForceKind::Vortex;
-        t.centre = Vec3(-0.2, 0, 0);
-        t.axis = Vec3::UnitY();
-        t.radius = 0.6;
-        t.strength = Keyframes::constant(0.6);
-        f.add(t);
+        const ForceField f = gentleVortex();
         const Real dt = 1.0 / 48;
         for (int s = 0; s < 4; ++s) (void)body.step(f, 1, dt, {});
         std::vector<StepReport> reports;
