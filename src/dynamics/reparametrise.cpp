@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <string>
 
 namespace dgv {
 
@@ -147,6 +148,11 @@ Reparametrisation reparametrise(const DeformableBody& body) {
         dims[d] = static_cast<int>(std::floor((hi[d] - origin[d]) / h)) + 3;
     }
     const Vec3i cellDims = dims - Vec3i::Ones();
+    if (!(Real(cellDims.x()) * cellDims.y() * cellDims.z() <= Real(kMaxRemapGridCells))) {
+        out.refused = "its parts lie too far apart for one grid (" + std::to_string(cellDims.x()) + " x " +
+                      std::to_string(cellDims.y()) + " x " + std::to_string(cellDims.z()) + " cells)";
+        return out;
+    }
     auto cellIndex = [&](const Vec3i& w) { return at(w.x() + Index(cellDims.x()) * (w.y() + Index(cellDims.y()) * w.z())); };
     auto gridIndex = [&](const Vec3i& u) { return at(u.x() + Index(dims.x()) * (u.y() + Index(dims.y()) * u.z())); };
 

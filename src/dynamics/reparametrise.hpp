@@ -57,6 +57,10 @@ inline constexpr Real kMaxRemapMismatch = 0.05;
 /// The least share of a body's volume the samples of the old shape must see (Reparametrisation::sampled).
 inline constexpr Real kMinRemapSampled = 0.9;
 
+/// The largest grid a remap samples on (about 130 bytes a cell: 1 GB): a body whose parts have
+/// flown far apart is refused rather than sampled on a grid spanning the space between them.
+inline constexpr long kMaxRemapGridCells = 8'000'000;
+
 /// A body re-voxelised in its current shape.
 struct Reparametrisation {
     Lattice lattice;             ///< the new material lattice (spacing h · dilation)
@@ -71,8 +75,7 @@ struct Reparametrisation {
 };
 
 /// Re-voxelises `body` in its current shape (file comment). Refused (with the reason) for a body
-/// with pins or a rest shape (stiffness), for a shape no new cell fits, and where the dilation would
-/// pass kMaxRemapDilation.
+/// with pins or a rest shape (stiffness), for a shape no new cell fits, and past the bounds above.
 Reparametrisation reparametrise(const DeformableBody& body);
 
 }  // namespace dgv
