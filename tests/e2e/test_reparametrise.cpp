@@ -57,7 +57,7 @@ std::string statsWithoutTime(const fs::path& file) {
 }  // namespace
 
 TEST_CASE("e2e: goo in a vortex is re-parametrised, keeps the volume goals and resumes after a remap to the same bytes",
-          "[e2e][reparametrise][resume]") {
+          "[e2e][reparametrise][resume][slow]") {
     test::TempDir dir("e2e_remap");
     writeSwirlScene(dir.path());
     const Run full = runDgvIn(dir.path(), "render swirl.json --out full");
