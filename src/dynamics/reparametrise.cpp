@@ -192,6 +192,20 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     Real restTotal = 0;
     for (Real r : body.restVolumes()) restTotal += r;
     const Real target = restTotal / (h * h * h);
+    // The samples must see the shape: a sheet thinner than a sample spacing (a third of a voxel)
+    // falls between them, and what they miss cannot be put anywhere near where it was.
+    {
+        long samples = 0;
+        for (const int c : inside) samples += c;
+        out.sampled = Real(samples) / kSubSamples / target;
+    }
+    if (!(out.sampled >= kMinRemapSampled)) {
+        char why[200];
+        std::snprintf(why, sizeof why,
+                      "its samples see %.0f %% of its volume (parts under a third of a voxel thick)", 100 * out.sampled);
+        out.refused = why;
+        return out;
+    }
     std::vector<std::pair<long, Index>> ranked;  // (−key, cell)
     for (int k = 0; k < cellDims.z(); ++k)
         for (int j = 0; j < cellDims.y(); ++j)
@@ -245,12 +259,11 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     (void)choose(count);
     Lattice grid = buildLattice(origin, h, dims, mask);
     const LatticeCells newCells = buildCells(grid);
-    out.cells = newCells.size();
     // How much of the old shape the new cells leave more than a cell away: the covered share of
     // the cells that are neither new cells nor next to one (26 neighbours), over the body's
     // volume. Where the shape is under a voxel thick, every cell is partly covered and the
     // count's ranking can gather the material of a thin sheet into a thick strip, a jump of
-    // several voxels (a draped sheet: 0.55 of its volume; within a cell of where it was, a
+    // several voxels (a draped sheet: 0.77 of its volume; within a cell of where it was, a
     // remap moves nothing by this measure).
     {
         std::vector<unsigned char> taken(at(cellCount), 0);
@@ -272,20 +285,6 @@ Reparametrisation reparametrise(const DeformableBody& body) {
                     if (!near) far += Real(inside[c]) / kSubSamples;
                 }
         out.mismatch = far / target;
-    }
-    // The samples must see the shape: a sheet thinner than a sample spacing (a third of a voxel)
-    // falls between them, and what they miss cannot be put anywhere near where it was.
-    {
-        long samples = 0;
-        for (const int c : inside) samples += c;
-        out.sampled = Real(samples) / kSubSamples / target;
-    }
-    if (!(out.sampled >= kMinRemapSampled)) {
-        char why[200];
-        std::snprintf(why, sizeof why,
-                      "its samples see %.0f %% of its volume (parts under a third of a voxel thick)", 100 * out.sampled);
-        out.refused = why;
-        return out;
     }
     if (!(out.mismatch <= kMaxRemapMismatch)) {
         char why[200];
@@ -311,7 +310,7 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     grid.spacing = h * dilation;
 
     // Velocities: interpolated in the old tetrahedra at the new points; a new point outside them
-    // (a corner of a cell more than half inside) takes the mean of its cells' samples.
+    // (a corner of a new cell that pokes out of the old shape) takes the mean of its cells' samples.
     std::vector<Sample> corners(at(Index(dims.prod())));
     forEachTetrahedron(cells, x, h, [&](const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& tlo,
                                         const Vec3& thi) {
@@ -325,7 +324,7 @@ Reparametrisation reparametrise(const DeformableBody& body) {
                 for (int ii = a.x(); ii <= b.x(); ++ii) {
                     Sample& s = corners[gridIndex(Vec3i(ii, jj, kk))];
                     if (!s.inside() && mask[gridIndex(Vec3i(ii, jj, kk))])
-                        (void)barycentric(ids, v0, mi, origin + h * Vec3(ii, jj, kk), s);  // the old shape's grid
+                        (void)barycentric(ids, v0, mi, origin + h * Vec3(ii, jj, kk), s);
                 }
     });
     const Index n = grid.size();
@@ -348,7 +347,7 @@ Reparametrisation reparametrise(const DeformableBody& body) {
         vNew[at(p)] = count > 0 ? Vec3(total / count) : Vec3::Zero();
     });
     // The same momentum as the old points carry over the last step.
-    const std::vector<Real> mOld = body.masses();
+    const std::vector<Real>& mOld = body.masses();
     const std::vector<Real> mNew = pointMasses(grid, set.density, MassRule::CellShare);
     Vec3 pOld = Vec3::Zero(), pNew = Vec3::Zero();
     Real massOld = 0, massNew = 0;

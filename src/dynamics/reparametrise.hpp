@@ -68,7 +68,6 @@ struct Reparametrisation {
                                  ///< at restPositions(lattice) with the same settings, then restoreState
     Vec3 pivot = Vec3::Zero();   ///< world points of the old shape map to pivot + dilation (w − pivot)
     Real dilation = 1;
-    Index cells = 0;             ///< complete cells of the new lattice
     Real mismatch = 0;           ///< the old shape's volume more than a cell from every new cell / the volume
     Real sampled = 0;            ///< the old shape's volume the samples see / the volume
     std::string refused;         ///< why the body cannot be re-parametrised (then nothing else is set)

@@ -574,11 +574,10 @@ bool Simulation::checkSurfaces(FrameStats& s, int* failed, SurfaceCheck* failedC
 
 FrameStats Simulation::advanceTo(int frame) {
     DGV_CHECK_EQ(frame, mFrame + 1);
-    // Goo whose lattice no longer follows it is re-voxelised before the frame (a function of the
-    // state, so a resumed run does the same).
-    // A frame that faults or tears its surface is simulated again from its start at twice the
-    // substeps (docs/math.md, "Never a torn frame"): nothing of it has been written yet, and the
-    // decision is a function of the state, so a resumed run retries the same way.
+    // Goo whose lattice no longer follows it is re-voxelised before the frame. A frame that faults
+    // or tears its surface is simulated again from its start: goo re-voxelised first, then at
+    // twice the substeps (docs/math.md, "Never a torn frame"). Nothing of the frame has been
+    // written yet, and every decision is a function of the state, so a resumed run does the same.
     Index remaps = reparametriseDistorted(frame);
     int sub = frameSubsteps(frame);
     const int firstSub = sub;
@@ -721,6 +720,10 @@ std::vector<Simulation::ObjectState> Simulation::saveState() const {
     return out;
 }
 
+bool Simulation::onCurrentLattice(std::size_t i, const ObjectState& o) const {
+    return o.remaps == mRemapped[i].count && (o.remaps == 0 || o.latticeCoords == mRemapped[i].lattice->coords);
+}
+
 bool Simulation::stateFits(const std::vector<ObjectState>& states) const {
     if (states.size() != mBodies.size()) return false;
     for (std::size_t i = 0; i < mBodies.size(); ++i) {
@@ -728,7 +731,7 @@ bool Simulation::stateFits(const std::vector<ObjectState>& states) const {
         if (o.present != (mBodies[i] != nullptr)) return false;
         if (!mBodies[i]) continue;
         if (o.remaps < 0 || (o.remaps > 0 && !mRemapAllowed[i])) return false;
-        if (o.remaps == mRemapped[i].count && (o.remaps == 0 || o.latticeCoords == mRemapped[i].lattice->coords)) {
+        if (onCurrentLattice(i, o)) {
             if (!mBodies[i]->stateFits(o.body)) return false;
             continue;
         }
@@ -754,7 +757,7 @@ void Simulation::restoreState(int frame, std::vector<ObjectState> states) {
     for (std::size_t i = 0; i < mBodies.size(); ++i) {
         if (!mBodies[i]) continue;
         ObjectState& o = states[i];
-        if (o.remaps == mRemapped[i].count && (o.remaps == 0 || o.latticeCoords == mRemapped[i].lattice->coords)) {
+        if (onCurrentLattice(i, o)) {
             mBodies[i]->restoreState(std::move(o.body));
             continue;
         }

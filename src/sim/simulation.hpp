@@ -204,6 +204,8 @@ private:
     /// Puts body i on `lattice` with `state` (remaps > 0) or back on its own lattice (remaps 0),
     /// with `surface` (its rest shape on the new lattice) as what it renders.
     void installLattice(std::size_t i, Lattice lattice, DeformableBodyState state, TriangleMesh surface, int remaps);
+    /// Whether state o lives on body i's lattice now (else restoring it builds the body again).
+    bool onCurrentLattice(std::size_t i, const ObjectState& o) const;
     /// Object i's GLN contact detector on its body's current lattice (collision.detect = gln).
     void attachNetwork(std::size_t i);
     bool mGlnDetect = false;
