@@ -31,12 +31,6 @@ namespace {
 constexpr int kShadowMapSize = 2048;
 constexpr int kMaxTextureSize = 16384;
 
-/// The exact sRGB transfer function (IEC 61966-2-1), linear [0,1] -> encoded [0,1].
-double encodeSrgb(double x) {
-    x = std::clamp(x, 0.0, 1.0);
-    return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
-}
-
 /// IEEE half (binary16) bits -> float (subnormals, infinities and NaN included).
 float halfToFloat(std::uint16_t h) {
     const int sign = h >> 15, exponent = (h >> 10) & 0x1f, mantissa = h & 0x3ff;
@@ -306,6 +300,9 @@ struct Renderer::Impl {
     GLuint groundVao = 0, groundVbo = 0, groundEbo = 0;
     static constexpr int kGroundOuterIndices = 8 * 6;
     GLuint emptyVao = 0;
+    // Ground marks (FrameScene::groundMarks) as a texture over their bounding rectangle.
+    GLuint decalTexture = 0;
+    std::vector<float> decalTexels;
     std::vector<MeshSlot> meshes;
     std::vector<std::uint16_t> readback;
     // Half-float bits -> 16-bit code: sRGB-encoded colour, linear alpha (exact, in double).
@@ -423,6 +420,7 @@ struct Renderer::Impl {
         glDeleteBuffers(1, &groundEbo);
         glDeleteFramebuffers(1, &shadowFbo);
         glDeleteTextures(1, &shadowDepth);
+        if (decalTexture) glDeleteTextures(1, &decalTexture);
         releaseTargets();
     }
 
@@ -717,6 +715,63 @@ struct Renderer::Impl {
         setInt(p, "uShadowMap", 0);
     }
 
+    /// Rasterises the ground marks into decalTexture; returns the rectangle (x0, z0, 1/width,
+    /// 1/depth) it covers. Texels of a quarter of the smallest mark's radius, at most 512 a side.
+    std::array<Real, 4> uploadGroundMarks(const std::vector<GroundMark>& marks) {
+        Real x0 = std::numeric_limits<Real>::infinity(), z0 = x0, x1 = -x0, z1 = -x0, rMin = x0;
+        for (const GroundMark& m : marks) {
+            x0 = std::min(x0, m.x - m.radius);
+            x1 = std::max(x1, m.x + m.radius);
+            z0 = std::min(z0, m.z - m.radius);
+            z1 = std::max(z1, m.z + m.radius);
+            rMin = std::min(rMin, m.radius);
+        }
+        constexpr int kMaxSide = 512;
+        const Real texel = std::max({0.25 * rMin, (x1 - x0) / kMaxSide, (z1 - z0) / kMaxSide});
+        const int nx = std::clamp(static_cast<int>(std::ceil((x1 - x0) / texel)), 2, kMaxSide);
+        const int nz = std::clamp(static_cast<int>(std::ceil((z1 - z0) / texel)), 2, kMaxSide);
+        const Real dx = (x1 - x0) / nx, dz = (z1 - z0) / nz;
+        // Per texel: Π(1 − a), Σ a·colour, Σ a.
+        std::vector<double> clear(static_cast<std::size_t>(nx) * nz, 1.0), sum(static_cast<std::size_t>(nx) * nz * 4, 0.0);
+        for (const GroundMark& m : marks) {
+            const Real a0 = std::clamp(m.strength, Real(0), Real(1));
+            const int i0 = std::max(0, static_cast<int>(std::floor((m.x - m.radius - x0) / dx)));
+            const int i1 = std::min(nx - 1, static_cast<int>(std::ceil((m.x + m.radius - x0) / dx)));
+            const int j0 = std::max(0, static_cast<int>(std::floor((m.z - m.radius - z0) / dz)));
+            const int j1 = std::min(nz - 1, static_cast<int>(std::ceil((m.z + m.radius - z0) / dz)));
+            for (int j = j0; j <= j1; ++j)
+                for (int i = i0; i <= i1; ++i) {
+                    const Real t = std::hypot(x0 + (i + 0.5) * dx - m.x, z0 + (j + 0.5) * dz - m.z) / m.radius;
+                    if (t >= 1) continue;
+                    const Real a = a0 * (1 - t * t * (3 - 2 * t));
+                    const std::size_t k = static_cast<std::size_t>(j) * nx + i;
+                    clear[k] *= 1 - a;
+                    for (int c = 0; c < 3; ++c) sum[4 * k + c] += a * m.colour[c];
+                    sum[4 * k + 3] += a;
+                }
+        }
+        decalTexels.assign(static_cast<std::size_t>(nx) * nz * 4, 0.0f);
+        for (std::size_t k = 0; k < clear.size(); ++k) {
+            if (!(sum[4 * k + 3] > 0)) continue;
+            const double alpha = 1 - clear[k];
+            for (int c = 0; c < 3; ++c)
+                decalTexels[4 * k + c] = static_cast<float>(std::clamp(sum[4 * k + c] / sum[4 * k + 3], 0.0, 1.0) * alpha);
+            decalTexels[4 * k + 3] = static_cast<float>(alpha);
+        }
+        if (!decalTexture) {
+            glGenTextures(1, &decalTexture);
+            glBindTexture(GL_TEXTURE_2D, decalTexture);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        }
+        glBindTexture(GL_TEXTURE_2D, decalTexture);
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, nx, nz, 0, GL_RGBA, GL_FLOAT, decalTexels.data());
+        return {x0, z0, 1 / (x1 - x0), 1 / (z1 - z0)};
+    }
+
     static double msSince(std::chrono::steady_clock::time_point t0) {
         return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }
@@ -902,6 +957,7 @@ struct Renderer::Impl {
                 setVec3(p, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
                 setVec3(p, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));
                 setFloat(p, "uRampMin", m.ramp.min);
+                setFloat(p, "uRampGlow", std::clamp(m.ramp.glow, 0.0, 1.0));
                 const Real span = m.ramp.max - m.ramp.min;
                 setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
             }
@@ -922,6 +978,13 @@ struct Renderer::Impl {
         // drawn here, depth-tested, at n x n.
         const bool groundAtOutput =
             drawGround && camera.eye.y() > groundY && bounds.min.y() >= groundY - 1e-3 * radius;
+        const bool haveDecal = drawGround && !scene.groundMarks.empty() && !settings.transparentBackground;
+        std::array<Real, 4> decalRect{0, 0, 1, 1};
+        if (haveDecal) {
+            glActiveTexture(GL_TEXTURE2);
+            decalRect = uploadGroundMarks(scene.groundMarks);
+            glActiveTexture(GL_TEXTURE0);
+        }
         auto drawGroundCells = [&]() {
             // Where shadows can fall: the bounding sphere projected along the key light onto
             // the ground, an ellipse whose bounding box is the centre cell (plus the PCF reach).
@@ -958,6 +1021,11 @@ struct Renderer::Impl {
                 setVec3(p, "uGroundAlbedo", Vec3::Constant(0.40));
                 setInt(p, "uCatcher", settings.transparentBackground ? 1 : 0);
                 setInt(p, "uFootprint", groundAtOutput ? 1 : 0);
+                setInt(p, "uDecal", 2);
+                setInt(p, "uHasDecal", haveDecal ? 1 : 0);
+                setFloat(p, "uDecalGlow", scene.groundMarkGlow);
+                glUniform4f(p.uniform("uDecalRect"), static_cast<float>(decalRect[0]), static_cast<float>(decalRect[1]),
+                            static_cast<float>(decalRect[2]), static_cast<float>(decalRect[3]));
                 if (program == &groundPlainProgram) {
                     glDrawElements(GL_TRIANGLES, kGroundOuterIndices, GL_UNSIGNED_INT, nullptr);
                 } else {

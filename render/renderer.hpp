@@ -24,6 +24,9 @@ struct ScalarRamp {
     Vec3 low = Vec3(1.0, 0.85, 0.1);   ///< linear RGB at s = min
     Vec3 high = Vec3(0.9, 0.05, 0.02); ///< linear RGB at s >= max
     Real min = 0, max = 1;
+    /// Where s > 0 the ramp colour is also emitted, times this (0..1): unlit and unshadowed, so
+    /// a highlight on a surface turned from the lights or in a contact shadow still reads.
+    Real glow = 0;
 };
 
 /// One surface to draw, in world space. Normals are recomputed from the positions every frame
@@ -58,6 +61,18 @@ struct PointSet {
     bool onTop = true;          ///< drawn over everything (points inside a volume show through)
 };
 
+/// A mark on the ground plane (a contact footprint, render.contact.footprint): a disc at
+/// (x, z) whose colour covers the ground's albedo by `strength` (0..1) at its centre and by
+/// nothing at `radius`, smoothly (a smoothstep in the distance). Where marks overlap, the
+/// coverage is 1 − Π(1 − a_i) and the colour the coverage-weighted mean. Lit and shadowed as
+/// the ground is; not drawn in the transparent background's shadow-catcher mode.
+struct GroundMark {
+    Real x = 0, z = 0;
+    Real radius = 0;                      ///< world units (> 0)
+    Vec3 colour = Vec3(0.9, 0.05, 0.02);  ///< linear RGB
+    Real strength = 1;                    ///< 0..1
+};
+
 struct FrameScene {
     std::vector<DrawMesh> meshes;
     bool groundPlane = true;  ///< a ground plane with a soft contact shadow
@@ -69,6 +84,9 @@ struct FrameScene {
     /// shadow or the lights, which follow the meshes' bounds).
     std::vector<Polyline> lines;
     std::vector<PointSet> points;
+    /// Marks drawn into the ground plane (only where it is drawn: groundPlane, at groundHeight).
+    std::vector<GroundMark> groundMarks;
+    Real groundMarkGlow = 0;  ///< the marks' colour also emitted, times this (as ScalarRamp::glow)
 };
 
 /// Where the OpenGL context comes from (both give llvmpipe and bit-identical images on Mesa 22).

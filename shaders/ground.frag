@@ -10,6 +10,13 @@ uniform float uFadeInner;   // full floor inside this radius
 uniform float uFadeOuter;   // nothing beyond this radius (alpha exactly 0)
 uniform vec3 uGroundAlbedo;
 uniform int uCatcher;
+// Ground marks (FrameScene::groundMarks), rasterised on the CPU into a texture over the
+// rectangle uDecalRect = (x0, z0, 1/width, 1/depth): premultiplied linear colour, alpha =
+// coverage; the colour is also emitted, times uDecalGlow.
+uniform sampler2D uDecal;
+uniform float uDecalGlow;
+uniform vec4 uDecalRect;
+uniform int uHasDecal;
 
 out vec4 fragColour;
 
@@ -30,6 +37,16 @@ void main() {
     vec3 irradiance = uKeyColour * (max(uKeyDir.y, 0.0) * key)
                     + uFillColour * max(uFillDir.y, 0.0)
                     + hemisphere(n);
-    vec3 colour = uGroundAlbedo * irradiance;
+    vec3 albedo = uGroundAlbedo;
+    vec3 emitted = vec3(0.0);
+    if (uHasDecal != 0) {
+        vec2 t = (vPosition.xz - uDecalRect.xy) * uDecalRect.zw;
+        if (all(greaterThanEqual(t, vec2(0.0))) && all(lessThanEqual(t, vec2(1.0)))) {
+            vec4 d = texture(uDecal, t);
+            albedo = albedo * (1.0 - d.a) + d.rgb;
+            emitted = uDecalGlow * d.rgb;
+        }
+    }
+    vec3 colour = albedo * irradiance + emitted;
     fragColour = vec4(colour * fade, fade);  // premultiplied
 }

@@ -19,6 +19,7 @@ uniform vec3 uRampLow;
 uniform vec3 uRampHigh;
 uniform float uRampMin;
 uniform float uRampInvSpan;
+uniform float uRampGlow;
 
 out vec4 fragColour;
 
@@ -29,8 +30,12 @@ void main() {
     vec3 v = normalize(uEye - vPosition);
 
     vec3 albedo = uAlbedo;
+    vec3 emitted = vec3(0.0);
 #if DGV_SCALAR
-    if (vScalar > 0.0) albedo = mix(uRampLow, uRampHigh, clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0));
+    if (vScalar > 0.0) {
+        albedo = mix(uRampLow, uRampHigh, clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0));
+        emitted = uRampGlow * albedo;
+    }
 #endif
 
     float key = keyVisibility(vPosition, n);
@@ -40,6 +45,7 @@ void main() {
                     + hemisphere(n);
     vec3 colour = albedo * irradiance
                 + specular(n, v, uKeyDir, uKeyColour, 48.0) * key
-                + specular(n, v, uRimDir, uRimColour, 24.0);
+                + specular(n, v, uRimDir, uRimColour, 24.0)
+                + emitted;
     fragColour = vec4(colour, 1.0);  // premultiplied, opaque
 }

@@ -91,12 +91,6 @@ Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real a
     return turntableCamera(bounds, angle, c.elevationDegrees, c.fovDegrees, aspect, c.margin);
 }
 
-/// The exact sRGB curve, linear [0,1] -> encoded [0,1] (as the renderer's background).
-double linearToSrgb(double x) {
-    x = std::clamp(x, 0.0, 1.0);
-    return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
-}
-
 /// Thumbnail of at most `maxWidth` pixels across: a box filter over whole source pixels (on
 /// the sRGB-encoded 16-bit values: a preview, not a resample for compositing).
 Image thumbnail(const Image& src, int maxWidth) {
@@ -224,6 +218,7 @@ int runRender(const RenderOptions& options) {
         frameScene.meshes[i].creasePositions = objects[i].restMesh.vertices;  // same split for any --frames
     }
     // Static colliders after the objects (level sets: their zero isosurface), framed with them.
+    const std::size_t firstCollider = frameScene.meshes.size();
     for (DrawMesh& m : colliderDrawMeshes(scene)) {
         for (const Vec3& p : m.positions) bounds.extend(p);
         frameScene.meshes.push_back(std::move(m));
@@ -235,7 +230,10 @@ int runRender(const RenderOptions& options) {
                                                                           : ContactHighlightMode::Off;
     for (std::size_t i = 0; i < objects.size(); ++i) {
         ScalarRamp& ramp = frameScene.meshes[i].ramp;
-        ramp.high = rd.contactHigh;
+        // Colours not given are chosen to stand out from the surface (an orange putty gets blue).
+        const HighlightColours auto_ = contrastingHighlight(objects[i].color);
+        ramp.high = rd.contactHighSet ? rd.contactHigh : auto_.high;
+        ramp.glow = rd.contactGlow;
         if (contactMode == ContactHighlightMode::Recent) {
             // From `high` (in R now) back to `low`, by default the surface's own colour.
             ramp.low = rd.contactLowSet ? rd.contactLow : objects[i].color;
@@ -244,11 +242,24 @@ int runRender(const RenderOptions& options) {
         } else {
             // Scalars are depth + edge in R and -edge outside (contactPointScalar).
             const Real depthMax = rd.contactDepthMax > 0 ? rd.contactDepthMax : objects[i].lattice.spacing;
-            ramp.low = rd.contactLow;
+            ramp.low = rd.contactLowSet ? rd.contactLow : auto_.low;
             ramp.min = 0.25 * depthMax;
             ramp.max = 1.25 * depthMax;
         }
     }
+    // Footprints (render.contact.footprint): the colliders carry the highlight where bodies
+    // touch them, from the collider's colour to the highlight's, and the ground plane takes
+    // marks, so a contact under a body or on its far side still shows around it.
+    // Each body's contacts show in its own highlight colour, on the body and on what it touches.
+    const bool footprints = contactMode != ContactHighlightMode::Off && rd.contactFootprint;
+    if (footprints)
+        for (std::size_t m = firstCollider; m < frameScene.meshes.size(); ++m) {
+            frameScene.meshes[m].ramp.low = frameScene.meshes[m].colour;
+            frameScene.meshes[m].ramp.min = 0;
+            frameScene.meshes[m].ramp.max = 1;
+            frameScene.meshes[m].ramp.glow = rd.contactGlow;
+        }
+    frameScene.groundMarkGlow = rd.contactGlow;
     // render.overlays.lattice: the points drawn, per object (lattice_set "boundary": the
     // surface layer facing the camera, so the dots do not stack into stripes through the body).
     std::vector<std::vector<Index>> latticeShown(objects.size());
@@ -317,6 +328,10 @@ int runRender(const RenderOptions& options) {
         dynamics.advanceTo(frame);
         const Camera camera = frameCamera(scene, bounds, frame, aspect);
         if (rd.overlayGlnLoops) frameScene.lines.clear();  // this frame's loops replace the last frame's
+        // The points that mark the colliders this frame: where, how strongly (0..1], how wide.
+        std::vector<Vec3> markPoints;
+        std::vector<Real> markValues, markRadii;
+        std::vector<std::size_t> markBody;
         for (std::size_t i = 0; i < objects.size(); ++i) {
             const DeformableBody* body = dynamics.body(i);
             // A re-parametrised body (goo) lives on a lattice of its own: the overlays made on the
@@ -329,12 +344,25 @@ int runRender(const RenderOptions& options) {
             }
             deformVertices(body ? dynamics.embedding(i) : objects[i].embedding, body ? body->state() : objects[i].state,
                            frameScene.meshes[i].positions);
-            if (contactMode != ContactHighlightMode::Off && body)
-                pointScalarToVertices(dynamics.embedding(i),
-                                      contactPointScalar(contactMode, body->contact(), body->contactDepth(),
-                                                         dynamics.contactHistory(i).age(), rd.contactFadeFrames,
-                                                         frameScene.meshes[i].ramp.min),
-                                      frameScene.meshes[i].scalar);
+            if (contactMode != ContactHighlightMode::Off && body) {
+                std::vector<Real> pointValue =
+                    contactPointScalar(contactMode, body->contact(), body->contactDepth(),
+                                       dynamics.contactHistory(i).age(), rd.contactFadeFrames, frameScene.meshes[i].ramp.min);
+                if (footprints) {
+                    const std::vector<Vec3>& x = body->state().position;
+                    const Real reach = body->lattice().spacing * (1 + rd.contactSpread);
+                    for (std::size_t p = 0; p < pointValue.size() && p < x.size(); ++p)
+                        if (pointValue[p] > 0) {
+                            markPoints.push_back(x[p]);
+                            // Depth: every point in R at full strength; recent: as it fades.
+                            markValues.push_back(contactMode == ContactHighlightMode::Depth ? Real(1) : pointValue[p]);
+                            markRadii.push_back(reach);
+                            markBody.push_back(i);
+                        }
+                }
+                spreadPointScalar(body->lattice(), pointValue, rd.contactSpread);
+                pointScalarToVertices(dynamics.embedding(i), pointValue, frameScene.meshes[i].scalar);
+            }
             if (rd.overlayLattice) {
                 const std::vector<Vec3>& x = (body ? body->state() : objects[i].state).position;
                 frameScene.points[i].points = rd.overlayLatticeSet == "all" || !ownLattice
@@ -354,6 +382,40 @@ int runRender(const RenderOptions& options) {
                     frameScene.lines.push_back(std::move(line));
                 }
             }
+        }
+        if (footprints) {
+            Real reach = 0;
+            for (Real r : markRadii) reach = std::max(reach, r);
+            for (std::size_t m = firstCollider; m < frameScene.meshes.size(); ++m) {
+                DrawMesh& collider = frameScene.meshes[m];
+                footprintScalar(collider.positions, markPoints, markValues, reach, 1e-3, collider.scalar);
+                // One ramp per collider: the colour of the body it is touched by most (the
+                // first such body on a tie), judged by the marks within reach of its bounds.
+                Box3 box;
+                for (const Vec3& v : collider.positions) box.extend(v);
+                std::vector<std::size_t> near(objects.size(), 0);
+                for (std::size_t k = 0; k < markPoints.size(); ++k)
+                    if ((markPoints[k].array() >= box.min.array() - reach).all() &&
+                        (markPoints[k].array() <= box.max.array() + reach).all())
+                        ++near[markBody[k]];
+                const std::size_t most =
+                    static_cast<std::size_t>(std::max_element(near.begin(), near.end()) - near.begin());
+                collider.ramp.high = frameScene.meshes[most].ramp.high;
+            }
+            // Ground marks from the points within a lattice step of the drawn ground plane.
+            frameScene.groundMarks.clear();
+            if (frameScene.groundHeight && frameScene.groundPlane)
+                for (std::size_t k = 0; k < markPoints.size(); ++k) {
+                    const Real step = markRadii[k] / (1 + rd.contactSpread);
+                    if (std::abs(markPoints[k].y() - *frameScene.groundHeight) > step) continue;
+                    GroundMark g;
+                    g.x = markPoints[k].x();
+                    g.z = markPoints[k].z();
+                    g.radius = markRadii[k];
+                    g.colour = frameScene.meshes[markBody[k]].ramp.high;
+                    g.strength = markValues[k];
+                    frameScene.groundMarks.push_back(g);
+                }
         }
         Image image = renderer.render(frameScene, camera);
         const std::string path = framePath(scene.output.dir, scene.name, frame);
@@ -389,7 +451,7 @@ int runRender(const RenderOptions& options) {
     if (options.contactSheet) {
         Image gap(1, 1);
         for (int c = 0; c < 3; ++c)
-            gap.pixel(0, 0)[c] = static_cast<std::uint16_t>(std::lround(65535 * linearToSrgb(rs.background[c])));
+            gap.pixel(0, 0)[c] = static_cast<std::uint16_t>(std::lround(65535 * encodeSrgb(rs.background[c])));
         gap.pixel(0, 0)[3] = rs.transparentBackground ? 0 : 65535;
         const fs::path sheetPath = fs::path(scene.output.dir) / (scene.name + ".contact.png");
         PngWriteOptions sheetPng = png;

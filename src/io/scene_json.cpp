@@ -615,7 +615,11 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.contactFadeFrames = c.integer("fade_frames", d.contactFadeFrames, 1, 100000);
             d.contactLowSet = c.has("low");
             d.contactLow = c.color("low", d.contactLow);
+            d.contactHighSet = c.has("high");
             d.contactHigh = c.color("high", d.contactHigh);
+            d.contactSpread = c.integer("spread", d.contactSpread, 0, 16);
+            d.contactFootprint = c.boolean("footprint", d.contactFootprint);
+            d.contactGlow = c.number("glow", d.contactGlow, 0, 1);
         });
         g.object("overlays", [&](ObjectReader& o) {
             d.overlayLattice = o.boolean("lattice", d.overlayLattice);

@@ -9,6 +9,7 @@
 
 #include "base/types.hpp"
 #include "geom/embedding.hpp"
+#include "geom/lattice.hpp"
 
 #include <utility>
 #include <vector>
@@ -38,6 +39,17 @@ private:
     std::vector<int> mAge;
 };
 
+/// A highlight ramp's two colours (linear RGB): `low` shallow or fading, `high` deep or now.
+struct HighlightColours {
+    Vec3 low, high;
+};
+
+/// The ramp that stands out on a surface of albedo `surface` (linear RGB): of four pairs,
+/// warm (yellow → red, the default), cool (cyan → blue), green and magenta, the first whose
+/// `high` lies farthest from the surface in sRGB-encoded colour. A blue jelly gets red, an
+/// orange putty blue.
+HighlightColours contrastingHighlight(const Vec3& surface);
+
 /// Per-point scalar for `mode` (Off: all 0). Points outside the highlight get a negative value,
 /// so that the interpolated scalar crosses 0 (the renderer's "highlighted" test) between a
 /// highlighted point and its neighbours rather than at the neighbours: the highlight's edge
@@ -48,6 +60,22 @@ private:
 std::vector<Real> contactPointScalar(ContactHighlightMode mode, const std::vector<unsigned char>& contact,
                                      const std::vector<Real>& depth, const std::vector<int>& age, int fadeFrames,
                                      Real edge = 0);
+
+/// Widens a highlight over the body (render.contact.spread): a point within `rings` lattice
+/// steps (6-neighbour hops through material points) of highlighted points (s > 0) and not
+/// highlighted itself takes max_q s_q (1 − d_q/(rings + 1)), d_q its hops to q. The contact
+/// set R lies where the body touches, usually on the side facing away from the camera (under a
+/// landing ball, on the face towards the other ball); the band around it is what the camera
+/// sees. Points out of reach keep their value. rings ≤ 0: unchanged.
+void spreadPointScalar(const Lattice& lat, std::vector<Real>& scalar, int rings);
+
+/// Per vertex of a collider's drawn surface, its footprint (render.contact.footprint): the
+/// highlighted points (value > 0) within `radius` of the vertex give value · (1 − d/radius),
+/// the largest of them; vertices out of reach get −edge (the same sign rule as
+/// contactPointScalar, so the footprint's edge runs through triangles). `vertexValue` is
+/// resized to vertices.size(). Deterministic, in parallel.
+void footprintScalar(const std::vector<Vec3>& vertices, const std::vector<Vec3>& points,
+                     const std::vector<Real>& pointValue, Real radius, Real edge, std::vector<Real>& vertexValue);
 
 /// Per mesh vertex: sum_k w_k value(corner_k) for trilinear vertices, value(anchor) for the
 /// others. `vertexValue` is resized to emb.size(). Deterministic, in parallel.

@@ -191,8 +191,12 @@ struct RenderDesc {
     Real contactDepthMax = 0;          ///< depth at which the ramp reaches `high`; 0: the object's voxel size
     int contactFadeFrames = 12;        ///< recent: frames over which the highlight fades
     bool contactLowSet = false;        ///< whether `low` was given (recent: default the object's colour)
+    bool contactHighSet = false;       ///< whether `high` was given (else chosen to contrast with each surface)
     Vec3 contactLow = Vec3(1.0, 0.85, 0.1);    ///< linear RGB: shallow / fading
     Vec3 contactHigh = Vec3(0.9, 0.05, 0.02);  ///< linear RGB: deep / in contact now
+    int contactSpread = 4;             ///< lattice steps the highlight widens over the body (0: R alone)
+    bool contactFootprint = true;      ///< also mark the colliders (ground, spheres, meshes, level sets) where touched
+    Real contactGlow = 0.35;           ///< the highlight's colour also emitted, times this (reads in shadow)
     /// Overlays (render.overlays): lattice points as dots drawn over the surface, either the
     /// "boundary" points (those missing a neighbour: the surface layer) or "all" of them.
     bool overlayLattice = false;
