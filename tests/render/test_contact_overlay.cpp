@@ -509,3 +509,105 @@ TEST_CASE("colliders: a sphere collider is drawn where it is", "[render][e2e]") 
     CHECK(with.pixel(48 + 12, 48)[3] == 65535);
     CHECK(with.pixel(48 + 24, 48)[3] == 0);
 }
+
+TEST_CASE("contact highlight: the spread over the body falls off linearly with lattice hops", "[render][contact]") {
+    // A 7 x 1 x 1 row with the highlight on its first point: hops 1..3 take 3/4, 2/4, 1/4 of it
+    // (rings = 3), the rest keep their value; a second, weaker source nearer a point does not
+    // win over a stronger one farther away unless its share is larger.
+    const Lattice lat = buildLattice(Vec3::Zero(), 0.1, Vec3i(7, 1, 1), std::vector<unsigned char>(7, 1));
+    std::vector<Real> s{0.8, -0.01, -0.01, -0.01, -0.01, -0.01, -0.01};
+    spreadPointScalar(lat, s, 3);
+    CHECK(s[0] == 0.8);
+    CHECK(s[1] == Approx(0.6));
+    CHECK(s[2] == Approx(0.4));
+    CHECK(s[3] == Approx(0.2));
+    CHECK(s[4] == -0.01);  // out of reach
+    std::vector<Real> two{0.8, -0.01, -0.01, -0.01, 0.1, -0.01, -0.01};
+    spreadPointScalar(lat, two, 3);
+    CHECK(two[3] == Approx(std::max(0.8 * 0.25, 0.1 * 0.75)));  // the strong source: 0.2 > 0.075
+    CHECK(two[5] == Approx(0.075));                            // only the weak one reaches
+    std::vector<Real> none = s;
+    spreadPointScalar(lat, none, 0);  // rings 0: unchanged
+    CHECK(none == s);
+}
+
+TEST_CASE("contact highlight: collider footprints fall off with the distance to the touching points", "[render][contact]") {
+    const std::vector<Vec3> vertices{Vec3(0, 0, 0), Vec3(0.05, 0, 0), Vec3(0.1, 0, 0), Vec3(0.3, 0, 0)};
+    const std::vector<Vec3> points{Vec3(0, 0.0, 0), Vec3(0.1, 0.05, 0), Vec3(5, 5, 5)};
+    const std::vector<Real> value{1.0, 0.5, 0.0};  // the third is not highlighted
+    std::vector<Real> v;
+    footprintScalar(vertices, points, value, 0.1, 1e-3, v);
+    REQUIRE(v.size() == 4);
+    CHECK(v[0] == Approx(1.0));
+    CHECK(v[1] == Approx(std::max(0.5, 0.5 * (1 - std::hypot(0.05, 0.05) / 0.1))));
+    CHECK(v[2] == Approx(0.5 * 0.5));  // 0.05 from the second point; 0.1 from the first (its edge)
+    CHECK(v[3] == -1e-3);              // out of reach: below zero, so the edge runs through triangles
+}
+
+TEST_CASE("contact highlight: the automatic colour contrasts with the surface", "[render][contact]") {
+    // The default (warm) on cool and neutral surfaces; another pair on warm ones.
+    CHECK(contrastingHighlight(Vec3(0.3, 0.6, 0.85)).high == Vec3(0.9, 0.05, 0.02));    // jelly_drop's blue
+    CHECK(contrastingHighlight(Vec3(0.62, 0.66, 0.72)).high == Vec3(0.9, 0.05, 0.02));  // contact_ball's grey
+    const Vec3 putty(0.85, 0.35, 0.2);  // ring_drop's putty, nearly the default red
+    const Vec3 h = contrastingHighlight(putty).high;
+    CHECK(h != Vec3(0.9, 0.05, 0.02));
+    auto srgbDistance = [](const Vec3& a, const Vec3& b) {
+        return Vec3(encodeSrgb(a.x()) - encodeSrgb(b.x()), encodeSrgb(a.y()) - encodeSrgb(b.y()),
+                    encodeSrgb(a.z()) - encodeSrgb(b.z())).norm();
+    };
+    CHECK(srgbDistance(h, putty) > 2 * srgbDistance(Vec3(0.9, 0.05, 0.02), putty));
+}
+
+TEST_CASE("render: ground marks colour the floor where they lie and nowhere else", "[render][contact]") {
+    test::FpTrapsOff guard;  // llvmpipe's shaders
+    RenderSettings rs;
+    rs.width = 160;
+    rs.height = 90;
+    Renderer renderer(rs);
+    FrameScene scene;
+    DrawMesh ball;
+    const TriangleMesh sphere = makeSphere(0.3, 32, 16);
+    for (const Vec3& p : sphere.vertices) ball.positions.push_back(p + Vec3(0, 0.3, 0));
+    ball.triangles = sphere.triangles;
+    scene.meshes.push_back(ball);
+    scene.groundHeight = 0.0;
+    Camera cam;
+    cam.eye = Vec3(0, 2.5, 2.5);
+    cam.target = Vec3(0, 0, 0);
+    const Image plain = renderer.render(scene, cam);
+    // A mark in front of the ball (towards the camera), pure green, full strength.
+    GroundMark mark;
+    mark.x = 0;
+    mark.z = 0.6;
+    mark.radius = 0.15;
+    mark.colour = Vec3(0.0, 1.0, 0.0);
+    scene.groundMarks.push_back(mark);
+    const Image marked = renderer.render(scene, cam);
+    // The disc's bounding box on screen, from its rim points.
+    const Mat4 clip = cam.clipFromView(Real(rs.width) / rs.height, 0.1, 10) * cam.viewFromWorld();
+    Real sx0 = 1e9, sx1 = -1e9, sy0 = 1e9, sy1 = -1e9;
+    for (int k = 0; k < 64; ++k) {
+        const Real a = 2 * 3.14159265358979 * k / 64;
+        const Eigen::Vector4d c = clip * Eigen::Vector4d(mark.radius * std::cos(a), 0, mark.z + mark.radius * std::sin(a), 1);
+        const Real px = (c.x() / c.w() * 0.5 + 0.5) * rs.width, py = (0.5 - c.y() / c.w() * 0.5) * rs.height;
+        sx0 = std::min(sx0, px), sx1 = std::max(sx1, px), sy0 = std::min(sy0, py), sy1 = std::max(sy1, py);
+    }
+    int greener = 0, outside = 0;
+    for (int y = 0; y < plain.height; ++y)
+        for (int x = 0; x < plain.width; ++x) {
+            const std::uint16_t* a = plain.pixel(x, y);
+            const std::uint16_t* b = marked.pixel(x, y);
+            if (b[1] > a[1] + 2000 && b[0] < a[0]) ++greener;
+            const bool changed = a[0] != b[0] || a[1] != b[1] || a[2] != b[2];
+            if (changed && (x + 1.5 < sx0 || x - 0.5 > sx1 + 1 || y + 1.5 < sy0 || y - 0.5 > sy1 + 1)) ++outside;
+        }
+    CHECK(greener > 40);  // the disc, 0.3 m across, seen from 3.5 m: about 18 x 9 pixels
+    CHECK(outside == 0);  // nothing changes off the disc
+    // In shadow-catcher mode (transparent background) the marks are not drawn.
+    RenderSettings catcher = rs;
+    catcher.transparentBackground = true;
+    Renderer r2(catcher);
+    FrameScene noMarks = scene;
+    noMarks.groundMarks.clear();
+    CHECK(r2.render(scene, cam).rgba == r2.render(noMarks, cam).rgba);
+}
