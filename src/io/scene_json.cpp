@@ -361,17 +361,49 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.color = o.color("color", d.color);
         d.deformable = o.boolean("deformable", true);
         o.object("material", [&](ObjectReader& m) {
-            d.material.density = m.number("density", d.material.density, 0, HUGE_VAL, true);
-            d.material.damping = m.number("damping", d.material.damping, 0, 1e6);
-            d.material.viscosity = m.number("viscosity", d.material.viscosity, 0, 1e6);
-            d.material.stiffness = m.number("stiffness", d.material.stiffness, 0, 1e8);
-            d.material.yield = m.number("yield", d.material.yield, 0, 10);
-            if (d.material.yield > 0 && d.material.stiffness == 0)
+            MaterialDesc& mat = d.material;
+            // The preset first (jelly is MaterialDesc's default), then the keys given override it.
+            const std::string preset = m.choice("preset", "jelly", {"jelly", "putty", "goo"});
+            if (preset == "goo") {
+                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
+                mat.stiffness = 0;
+                mat.wobbles = 0;
+                mat.damping = 1;
+            } else if (preset == "putty") {
+                mat.yield = 0.1;
+                mat.wobbles = 1;
+            }
+            const int ways = int(m.has("stiffness")) + int(m.has("wobble_hz")) + int(m.has("sag"));
+            if (ways > 1) m.fail(m.has("sag") ? "sag" : "wobble_hz", "give one of 'stiffness', 'wobble_hz' and 'sag'");
+            if (m.has("damping") && m.has("wobbles")) m.fail("wobbles", "give 'damping' or 'wobbles', not both");
+            mat.density = m.number("density", mat.density, 0, HUGE_VAL, true);
+            if (m.has("stiffness")) {
+                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
+                mat.stiffness = m.number("stiffness", 0, 0, 1e8);
+            } else if (m.has("wobble_hz")) {
+                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::WobbleHz;
+                mat.wobbleHz = m.number("wobble_hz", 0, 0, 1000, true);
+            } else if (m.has("sag")) {
+                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Sag;
+                mat.sag = m.number("sag", 0, 0.001, 10);
+            }
+            if (m.has("damping")) {
+                mat.damping = m.number("damping", mat.damping, 0, 1e6);
+                mat.wobbles = 0;
+            } else if (m.has("wobbles")) {
+                mat.wobbles = m.number("wobbles", 0, 0, 1000, true);
+            }
+            const bool goo = mat.stiffnessFrom == MaterialDesc::StiffnessFrom::Value && mat.stiffness == 0;
+            if (goo) mat.wobbles = 0;  // nothing wobbles: `damping` (default 1) as given
+            if (goo && m.has("wobbles")) m.fail("wobbles", "needs a stiffness (goo does not wobble): give 'damping'");
+            mat.viscosity = m.number("viscosity", mat.viscosity, 0, 1e6);
+            mat.yield = m.number("yield", mat.yield, 0, 10);
+            if (mat.yield > 0 && goo)
                 m.fail("yield", "needs a 'stiffness' > 0 (goo has no rest shape to yield; it flows at any strain)");
-            d.material.volumeTolerance = m.number("volume_tolerance", d.material.volumeTolerance, 1e-12, 0.1);
-            d.material.maxDeltaGamma = m.number("max_delta_gamma", d.material.maxDeltaGamma, 0, 1, true);
-            d.material.pinnedLoad = m.boolean("pinned_load", d.material.pinnedLoad);
-            d.material.reparametrise = m.boolean("reparametrise", d.material.reparametrise);
+            mat.volumeTolerance = m.number("volume_tolerance", mat.volumeTolerance, 1e-12, 0.1);
+            mat.maxDeltaGamma = m.number("max_delta_gamma", mat.maxDeltaGamma, 0, 1, true);
+            mat.pinnedLoad = m.boolean("pinned_load", mat.pinnedLoad);
+            mat.reparametrise = m.boolean("reparametrise", mat.reparametrise);
         });
         d.velocity = o.vec3("velocity", d.velocity);
         d.spinDegrees = o.vec3("spin", d.spinDegrees);

@@ -51,6 +51,26 @@ Real srgbToLinear(Real c) {
 
 namespace dgv {
 
+Real resolvedStiffness(const MaterialDesc& m, Real halfHeight) {
+    constexpr Real kTwoPi = 6.283185307179586, kStandardGravity = 9.81;
+    switch (m.stiffnessFrom) {
+    case MaterialDesc::StiffnessFrom::Value: return m.stiffness;
+    case MaterialDesc::StiffnessFrom::WobbleHz: return (kTwoPi * m.wobbleHz) * (kTwoPi * m.wobbleHz);
+    case MaterialDesc::StiffnessFrom::Sag: break;
+    }
+    // scenes/README.md's rule, sag ≈ 5 g/(k r) of the radius r (measured on balls: the
+    // trace-free part of the sag is about two thirds of it).
+    return halfHeight > 0 ? 5 * kStandardGravity / (m.sag * halfHeight) : 0;
+}
+
+Real resolvedDamping(const MaterialDesc& m, Real stiffness) {
+    if (!(m.wobbles > 0) || !(stiffness > 0)) return m.damping;
+    // A wobble's amplitude decays as exp(−damping t/2) (the twist rate decays at `damping`):
+    // a tenth after `wobbles` periods of 2π/√k.
+    constexpr Real kPi = 3.141592653589793;
+    return std::sqrt(stiffness) * std::log(10.0) / (kPi * m.wobbles);
+}
+
 bool PinDesc::contains(const Vec3& x) const {
     switch (kind) {
         case Kind::None: return false;

@@ -37,11 +37,24 @@ struct PrimitiveDesc {
 };
 
 /// How a deformable object's material responds (dynamics/stepper.hpp DynamicsSettings).
+/// An object's material as the scene gives it. The shape memory's stiffness comes from one of
+/// `stiffness` (1/s²), `wobble_hz` or `sag`, the damping from `damping` or `wobbles`; a
+/// `preset` (jelly, the default; putty; goo) fills what the object does not give.
+/// sim/simulation resolves them on the object's lattice (resolvedStiffness, resolvedDamping).
 struct MaterialDesc {
+    enum class StiffnessFrom { Value, WobbleHz, Sag };
     Real density = 1000;        ///< kg/m^3
     Real damping = 1;           ///< 1/s: twist and flex stretch rates decay as exp(-damping t)
     Real viscosity = 0;         ///< m²/s: kinematic viscosity (DynamicsSettings::viscosity)
+    StiffnessFrom stiffnessFrom = StiffnessFrom::Sag;
     Real stiffness = 0;         ///< 1/s^2: shape memory (0: goo; > 0: jelly that wobbles back)
+    Real wobbleHz = 0;          ///< the wobble's frequency √k/2π (stiffnessFrom WobbleHz)
+    /// The resting sag under standard gravity as a share of the body's half height r (its rest
+    /// extent along y over 2): k = 5 g/(sag r) (stiffnessFrom Sag). Size-independent firmness.
+    Real sag = 0.1;
+    /// > 0: the damping is set so that a wobble's amplitude falls to a tenth over this many
+    /// periods, damping = 2 f ln 10 / wobbles (f = √k/2π); 0: `damping` as given.
+    Real wobbles = 3;
     Real yield = 0;             ///< plasticity: the largest elastic log strain (0: off; needs stiffness)
     Real volumeTolerance = 1e-5; ///< the volume projection's max |V/V0 − 1| per cell after a step
     Real maxDeltaGamma = 0.05;  ///< limiter on the connection change per step
@@ -55,6 +68,12 @@ struct MaterialDesc {
 /// or those that carry a vertex group of the object's mesh file (a named mesh or node, e.g. an
 /// OBJ `g` group: Blender's OBJ export writes vertex groups so) — the 8 corners of each group
 /// vertex's lattice cell, or its anchor point near the surface (geom/embedding).
+/// The shape memory's stiffness k (1/s²) of `m` on a body whose rest points span `halfHeight`
+/// metres above and below their middle along y (MaterialDesc::sag).
+Real resolvedStiffness(const MaterialDesc& m, Real halfHeight);
+/// The damping (1/s) of `m` for the stiffness k (MaterialDesc::wobbles; `damping` when k = 0).
+Real resolvedDamping(const MaterialDesc& m, Real stiffness);
+
 struct PinDesc {
     enum class Kind { None, Box, Ball, Group } kind = Kind::None;
     Vec3 min = Vec3::Zero(), max = Vec3::Zero();  ///< box

@@ -75,9 +75,23 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         const Lattice& lat = *lattices[i];
         DynamicsSettings set;
         set.density = o.material.density;
-        set.damping = o.material.damping;
+        {
+            Real yMin = std::numeric_limits<Real>::infinity(), yMax = -yMin;
+            for (Index p = 0; p < lat.size(); ++p) {
+                yMin = std::min(yMin, lat.restPosition(p).y());
+                yMax = std::max(yMax, lat.restPosition(p).y());
+            }
+            set.shapeStiffness = resolvedStiffness(o.material, 0.5 * (yMax - yMin + lat.spacing));
+        }
+        set.damping = resolvedDamping(o.material, set.shapeStiffness);
         set.viscosity = o.material.viscosity;
-        set.shapeStiffness = o.material.stiffness;
+        if (o.material.stiffnessFrom != MaterialDesc::StiffnessFrom::Value || o.material.wobbles > 0) {
+            char line[240];
+            std::snprintf(line, sizeof line,
+                          "object '%s': stiffness %.4g/s^2 (a wobble of %.3g Hz), damping %.3g/s", o.name.c_str(),
+                          set.shapeStiffness, std::sqrt(set.shapeStiffness) / 6.283185307179586, set.damping);
+            logInfo(line);
+        }
         set.yieldStrain = o.material.yield;
         set.volumeTolerance = o.material.volumeTolerance;
         set.maxDeltaGamma = o.material.maxDeltaGamma;
@@ -138,7 +152,8 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
     mRemapAllowed.assign(mBodies.size(), 0);
     for (std::size_t i = 0; i < mBodies.size(); ++i) {
         const ObjectDesc& o = scene.objects[i];
-        mRemapAllowed[i] = mBodies[i] && o.material.reparametrise && o.material.stiffness == 0 && !mBodies[i]->anyPinned();
+        mRemapAllowed[i] = mBodies[i] && o.material.reparametrise && mBodies[i]->settings().shapeStiffness == 0 &&
+                           !mBodies[i]->anyPinned();
     }
     mFrame = scene.frameStart;
 }

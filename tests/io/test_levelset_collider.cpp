@@ -205,7 +205,7 @@ struct DropResult {
 DropResult dropBall(const std::string& collider, const std::string& detect, const fs::path& sceneFile) {
     const std::string json = R"({"frames": {"start": 1, "end": 16, "fps": 24}, "substeps": 4,
         "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.3}, "velocity": [0, -1.5, 0],
-                     "material": {"damping": 2}}],
+                     "material": {"preset": "goo", "damping": 2}}],
         "forces": [{"type": "gravity"}], "collision": {"detect": ")" + detect + R"("},
         "colliders": [)" + collider + "]}";
     const SceneDesc scene = parseScene(json, sceneFile);

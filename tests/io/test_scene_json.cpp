@@ -256,6 +256,8 @@ TEST_CASE("scene_json: material keys map onto the object", "[io][scene]") {
     CHECK(m.density == 500);
     CHECK(m.damping == 2);
     CHECK(m.stiffness == 10);
+    CHECK(m.stiffnessFrom == MaterialDesc::StiffnessFrom::Value);
+    CHECK(m.wobbles == 0);  // damping given
     CHECK(m.maxDeltaGamma == Approx(0.1));
     CHECK(m.volumeTolerance == Approx(2e-6));
     CHECK(m.yield == 0);  // elastic unless asked
@@ -270,8 +272,48 @@ TEST_CASE("scene_json: material keys map onto the object", "[io][scene]") {
         R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 1000, "yield": 0.1}}]})", "dir/scene.json");
     CHECK(putty.objects[0].material.yield == Approx(0.1));
     // goo cannot yield: it has no rest shape
-    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"yield": 0.1}}]})"),
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 0, "yield": 0.1}}]})"),
                Catch::Contains("objects[0].material.yield: needs a 'stiffness' > 0"));
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 5, "yield": -1}}]})"),
                Catch::Contains("objects[0].material.yield:"));
+}
+
+TEST_CASE("scene_json: a body without material settings is jelly, and the presets, wobble_hz, sag and wobbles", "[io][scene]") {
+    auto material = [](const std::string& m) {
+        return parseScene(R"({"objects": [{"primitive": {"type": "sphere"})" + m + "}]}", "dir/scene.json").objects[0].material;
+    };
+    const MaterialDesc jelly = material("");
+    CHECK(jelly.stiffnessFrom == MaterialDesc::StiffnessFrom::Sag);
+    CHECK(jelly.sag == 0.1);
+    CHECK(jelly.wobbles == 3);
+    CHECK(jelly.yield == 0);
+    // k = 5 g/(sag r): a ball of half height 0.5 m at sag 0.1 → 981/s²; twice the size, half the k.
+    CHECK(resolvedStiffness(jelly, 0.5) == Approx(981));
+    CHECK(resolvedStiffness(jelly, 1.0) == Approx(490.5));
+    // damping = √k ln 10/(π wobbles): the amplitude e^(−ζt/2) is a tenth after 3 periods 2π/√k.
+    const Real k = 981, zeta = resolvedDamping(jelly, k);
+    CHECK(std::exp(-0.5 * zeta * 3 * 2 * 3.141592653589793 / std::sqrt(k)) == Approx(0.1));
+    const MaterialDesc goo = material(R"(, "material": {"preset": "goo"})");
+    CHECK(resolvedStiffness(goo, 0.5) == 0);
+    CHECK(resolvedDamping(goo, 0) == 1);
+    const MaterialDesc putty = material(R"(, "material": {"preset": "putty"})");
+    CHECK(putty.yield == Approx(0.1));
+    CHECK(resolvedStiffness(putty, 0.5) == Approx(981));
+    CHECK(putty.wobbles == 1);
+    const MaterialDesc hz = material(R"(, "material": {"wobble_hz": 2, "damping": 3})");
+    CHECK(resolvedStiffness(hz, 123) == Approx(std::pow(4 * 3.141592653589793, 2)));  // size-independent
+    CHECK(resolvedDamping(hz, resolvedStiffness(hz, 1)) == 3);  // damping given: wobbles off
+    CHECK(resolvedStiffness(material(R"(, "material": {"stiffness": 300})"), 0.5) == 300);
+    CHECK(material(R"(, "material": {"stiffness": 300})").wobbles == 3);  // the preset's damping rule stays
+    CHECK(resolvedStiffness(material(R"(, "material": {"preset": "goo", "sag": 0.2})"), 0.5) == Approx(490.5));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 5, "sag": 0.1}}]})"),
+               Catch::Contains("objects[0].material.sag: give one of 'stiffness', 'wobble_hz' and 'sag'"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"damping": 1, "wobbles": 2}}]})"),
+               Catch::Contains("objects[0].material.wobbles: give 'damping' or 'wobbles'"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"preset": "goo", "wobbles": 2}}]})"),
+               Catch::Contains("objects[0].material.wobbles: needs a stiffness"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"preset": "clay"}}]})"),
+               Catch::Contains("objects[0].material.preset"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"wobble_hz": 0}}]})"),
+               Catch::Contains("objects[0].material.wobble_hz"));
 }
