@@ -24,8 +24,9 @@ struct ScalarRamp {
     Vec3 low = Vec3(1.0, 0.85, 0.1);   ///< linear RGB at s = min
     Vec3 high = Vec3(0.9, 0.05, 0.02); ///< linear RGB at s >= max
     Real min = 0, max = 1;
-    /// Where s > 0 the ramp colour is also emitted, times this (0..1): unlit and unshadowed, so
-    /// a highlight on a surface turned from the lights or in a contact shadow still reads.
+    /// Where s > 0, `high` times this (0..1) times the ramp's position t = clamp((s − min)/(max −
+    /// min)) is also emitted: unlit and unshadowed, so a highlight on a surface turned from the
+    /// lights or in a contact shadow still reads, and it fades in with the ramp.
     Real glow = 0;
 };
 

@@ -33,8 +33,9 @@ void main() {
     vec3 emitted = vec3(0.0);
 #if DGV_SCALAR
     if (vScalar > 0.0) {
-        albedo = mix(uRampLow, uRampHigh, clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0));
-        emitted = uRampGlow * albedo;
+        float t = clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0);
+        albedo = mix(uRampLow, uRampHigh, t);
+        emitted = (uRampGlow * sqrt(t)) * uRampHigh;  // grows with the ramp: no step where it starts
     }
 #endif
 

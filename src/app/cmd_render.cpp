@@ -109,6 +109,35 @@ Image thumbnail(const Image& src, int maxWidth) {
 
 /// The thumbnails in a grid, row by row in frame order, ceil(sqrt(n)) columns; gaps are the
 /// background (or transparent).
+/// Writes `number` into `image` at its lower left corner: 3x5-pixel digits scaled by 2, white on
+/// a dark box, so a contact sheet says which frame each thumbnail is.
+void stampFrameNumber(Image& image, int number) {
+    static const char* const kDigits[10][5] = {
+        {"###", "#.#", "#.#", "#.#", "###"}, {".#.", "##.", ".#.", ".#.", "###"}, {"###", "..#", "###", "#..", "###"},
+        {"###", "..#", "###", "..#", "###"}, {"#.#", "#.#", "###", "..#", "..#"}, {"###", "#..", "###", "..#", "###"},
+        {"###", "#..", "###", "#.#", "###"}, {"###", "..#", ".#.", ".#.", ".#."}, {"###", "#.#", "###", "#.#", "###"},
+        {"###", "#.#", "###", "..#", "###"}};
+    const std::string text = std::to_string(number);
+    constexpr int kScale = 2, kPad = 2;
+    const int w = static_cast<int>(text.size()) * 4 * kScale - kScale + 2 * kPad, h = 5 * kScale + 2 * kPad;
+    const int x0 = 2, y0 = image.height - h - 2;
+    if (x0 + w > image.width || y0 < 0) return;
+    auto set = [&](int x, int y, std::uint16_t v) {
+        std::uint16_t* p = image.pixel(x, y);
+        p[0] = p[1] = p[2] = v;
+        p[3] = 65535;
+    };
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) set(x0 + x, y0 + y, 6000);
+    for (std::size_t c = 0; c < text.size(); ++c)
+        for (int row = 0; row < 5; ++row)
+            for (int col = 0; col < 3; ++col)
+                if (kDigits[text[c] - '0'][row][col] == '#')
+                    for (int dy = 0; dy < kScale; ++dy)
+                        for (int dx = 0; dx < kScale; ++dx)
+                            set(x0 + kPad + (static_cast<int>(c) * 4 + col) * kScale + dx, y0 + kPad + row * kScale + dy, 65535);
+}
+
 Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
     const int n = static_cast<int>(thumbs.size());
     const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
@@ -155,6 +184,11 @@ std::string framePath(const std::string& dir, const std::string& name, int frame
 
 }  // namespace
 
+/// Passes of smoothVertexScalar over a body's highlight: enough to round off the lattice's
+/// steps on the shipped scenes' meshes (2-4 triangles a voxel), not so many that it blurs the
+/// patch (each pass reaches one triangle further).
+constexpr int kHighlightSmoothing = 4;
+
 int runRender(const RenderOptions& options) {
     SceneDesc scene = loadScene(options.scene);
     int first = scene.frameStart, last = scene.frameEnd;
@@ -175,7 +209,12 @@ int runRender(const RenderOptions& options) {
                                                  std::to_string(scene.render.supersample) + ") must stay within 16384");
     if (options.movie && !onPath("ffmpeg"))
         throw InputError("--movie", "", "ffmpeg is not on PATH: install it (Debian: apt-get install ffmpeg) or drop --movie");
-    if (!scene.curves.empty()) return renderCurveScene(scene, first, last);  // the GLN figures
+    if (!scene.curves.empty()) {  // the GLN figures
+        if (options.contactSheet)
+            logInfo("--contact-sheet: '" + scene.name + "' is a curve scene (the GLN figures), which has no contact sheet; "
+                    "rendering its frames without one");
+        return renderCurveScene(scene, first, last);
+    }
 
     // Build every object before anything is written: bad meshes or settings fail up front.
     resolvePinGroups(scene);
@@ -260,11 +299,21 @@ int runRender(const RenderOptions& options) {
             frameScene.meshes[m].ramp.glow = rd.contactGlow;
         }
     frameScene.groundMarkGlow = rd.contactGlow;
+    // render.pins: each object's pinned lattice points as dots, after the lattice overlay's.
+    const std::size_t firstPinSet = rd.overlayLattice ? objects.size() : 0;
+    if (rd.pins) {
+        frameScene.points.resize(firstPinSet + objects.size());
+        for (std::size_t i = 0; i < objects.size(); ++i) {
+            frameScene.points[firstPinSet + i].colour = rd.pinColour;
+            frameScene.points[firstPinSet + i].size = rd.pinPointSize;
+            frameScene.points[firstPinSet + i].onTop = false;  // the pins on the near side, as the body hides the rest
+        }
+    }
     // render.overlays.lattice: the points drawn, per object (lattice_set "boundary": the
     // surface layer facing the camera, so the dots do not stack into stripes through the body).
     std::vector<std::vector<Index>> latticeShown(objects.size());
     if (rd.overlayLattice) {
-        frameScene.points.resize(objects.size());
+        frameScene.points.resize(std::max(frameScene.points.size(), objects.size()));
         for (std::size_t i = 0; i < objects.size(); ++i) {
             frameScene.points[i].colour = rd.overlayLatticeColour;
             frameScene.points[i].size = rd.overlayPointSize;
@@ -317,7 +366,10 @@ int runRender(const RenderOptions& options) {
             writer.finish();  // keeps the progress lines in frame order
             if (!inFlight.empty()) progress.step(std::exchange(inFlight, std::string()));
             progress.step(framePath(scene.output.dir, scene.name, frame) + " (complete, kept)");
-            if (options.contactSheet) thumbs.push_back(thumbnail(done, 320));
+            if (options.contactSheet) {
+                thumbs.push_back(thumbnail(done, 320));
+                stampFrameNumber(thumbs.back(), frame);
+            }
             ++kept;
             continue;  // a kept frame needs no state
         }
@@ -362,12 +414,22 @@ int runRender(const RenderOptions& options) {
                 }
                 spreadPointScalar(body->lattice(), pointValue, rd.contactSpread);
                 pointScalarToVertices(dynamics.embedding(i), pointValue, frameScene.meshes[i].scalar);
+                smoothVertexScalar(frameScene.meshes[i].triangles, frameScene.meshes[i].scalar, kHighlightSmoothing);
             }
             if (rd.overlayLattice) {
                 const std::vector<Vec3>& x = (body ? body->state() : objects[i].state).position;
                 frameScene.points[i].points = rd.overlayLatticeSet == "all" || !ownLattice
                                                   ? x
                                                   : latticeOverlayPoints(objects[i].lattice, x, latticeShown[i], &camera.eye);
+            }
+            if (rd.pins) {
+                std::vector<Vec3>& dots = frameScene.points[firstPinSet + i].points;
+                dots.clear();
+                if (body && body->anyPinned()) {
+                    const std::vector<Vec3>& x = body->state().position;
+                    for (std::size_t p = 0; p < body->pinned().size() && p < x.size(); ++p)
+                        if (body->pinned()[p]) dots.push_back(x[p]);
+                }
             }
             if (loopNetworks[i] && ownLattice) {
                 static const std::vector<unsigned char> kNoContact;
@@ -424,7 +486,10 @@ int runRender(const RenderOptions& options) {
                     {"dgv:scene", fs::path(scene.path).filename().string()},
                     {"dgv:key", frameKey},
                     {"dgv:frame", std::to_string(frame)}};
-        if (options.contactSheet) thumbs.push_back(thumbnail(image, 320));
+        if (options.contactSheet) {
+            thumbs.push_back(thumbnail(image, 320));
+            stampFrameNumber(thumbs.back(), frame);
+        }
         writer.submit(path, std::move(image), png);  // waits for the previous frame's write
         if (!inFlight.empty()) progress.step(inFlight);
         inFlight = path;

@@ -653,6 +653,18 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.contactFootprint = c.boolean("footprint", d.contactFootprint);
             d.contactGlow = c.number("glow", d.contactGlow, 0, 1);
         });
+        if (g.has("pins")) {
+            const Json* v = g.get("pins");
+            if (v->is_boolean()) {
+                d.pins = v->get<bool>();
+            } else {
+                g.object("pins", [&](ObjectReader& p) {
+                    d.pins = p.boolean("show", true);
+                    d.pinColour = p.color("color", d.pinColour);
+                    d.pinPointSize = p.number("point_size", d.pinPointSize, 1, 64);
+                });
+            }
+        }
         g.object("overlays", [&](ObjectReader& o) {
             d.overlayLattice = o.boolean("lattice", d.overlayLattice);
             d.overlayLatticeSet = o.choice("lattice_set", d.overlayLatticeSet, {"boundary", "all"});

@@ -97,6 +97,44 @@ void spreadPointScalar(const Lattice& lat, std::vector<Real>& scalar, int rings)
         if (!seed[p] && src[p] > 0) scalar[p] = weight(src[p], hops[p]);
 }
 
+void smoothVertexScalar(const std::vector<std::array<int, 3>>& triangles, std::vector<Real>& value, int passes) {
+    const std::size_t n = value.size();
+    if (passes <= 0 || n == 0) return;
+    // Edge neighbours in CSR form (each edge once per direction; shared edges of two triangles
+    // counted twice, which only weights them more, the same way every pass).
+    std::vector<int> count(n + 1, 0);
+    for (const auto& t : triangles)
+        for (int k = 0; k < 3; ++k)
+            if (t[k] >= 0 && static_cast<std::size_t>(t[k]) < n) count[static_cast<std::size_t>(t[k]) + 1] += 2;
+    for (std::size_t v = 0; v < n; ++v) count[v + 1] += count[v];
+    std::vector<int> next(count.begin(), count.end() - 1), nb(static_cast<std::size_t>(count[n]));
+    for (const auto& t : triangles)
+        for (int k = 0; k < 3; ++k) {
+            const int a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
+            if (a < 0 || static_cast<std::size_t>(a) >= n) continue;
+            nb[static_cast<std::size_t>(next[static_cast<std::size_t>(a)]++)] = b;
+            nb[static_cast<std::size_t>(next[static_cast<std::size_t>(a)]++)] = c;
+        }
+    std::vector<Real> out(n);
+    for (int pass = 0; pass < passes; ++pass) {
+        parallelFor(static_cast<Index>(n), [&](Index vi) {
+            const std::size_t v = static_cast<std::size_t>(vi);
+            out[v] = value[v];
+            if (!(value[v] > 0)) return;
+            Real sum = value[v];
+            int m = 1;
+            for (int k = count[v]; k < count[v + 1]; ++k) {
+                const int q = nb[static_cast<std::size_t>(k)];
+                if (q < 0 || static_cast<std::size_t>(q) >= n) continue;
+                sum += std::max(value[static_cast<std::size_t>(q)], Real(0));
+                ++m;
+            }
+            out[v] = std::max(sum / m, Real(1e-12));
+        });
+        value.swap(out);
+    }
+}
+
 void footprintScalar(const std::vector<Vec3>& vertices, const std::vector<Vec3>& points,
                      const std::vector<Real>& pointValue, Real radius, Real edge, std::vector<Real>& vertexValue) {
     vertexValue.assign(vertices.size(), -std::max(edge, Real(1e-12)));

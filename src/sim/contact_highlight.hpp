@@ -11,6 +11,7 @@
 #include "geom/embedding.hpp"
 #include "geom/lattice.hpp"
 
+#include <array>
 #include <utility>
 #include <vector>
 
@@ -68,6 +69,13 @@ std::vector<Real> contactPointScalar(ContactHighlightMode mode, const std::vecto
 /// landing ball, on the face towards the other ball); the band around it is what the camera
 /// sees. Points out of reach keep their value. rings ≤ 0: unchanged.
 void spreadPointScalar(const Lattice& lat, std::vector<Real>& scalar, int rings);
+
+/// Smooths a per-vertex highlight over the mesh: `passes` Jacobi sweeps of the mean over each
+/// vertex's edge neighbours, on the positive values only (a vertex out of the highlight stays
+/// out, one inside never drops below zero). The value comes from lattice points a voxel or more
+/// apart, so on a mesh finer than the lattice its edge follows the cells in steps; a few
+/// passes round them off.
+void smoothVertexScalar(const std::vector<std::array<int, 3>>& triangles, std::vector<Real>& value, int passes);
 
 /// Per vertex of a collider's drawn surface, its footprint (render.contact.footprint): the
 /// highlighted points (value > 0) within `radius` of the vertex give value · (1 − d/radius),

@@ -218,6 +218,10 @@ struct RenderDesc {
     Real contactGlow = 0.35;           ///< the highlight's colour also emitted, times this (reads in shadow)
     /// Overlays (render.overlays): lattice points as dots drawn over the surface, either the
     /// "boundary" points (those missing a neighbour: the surface layer) or "all" of them.
+    /// render.pins: the pinned lattice points drawn as dots (depth-tested).
+    bool pins = false;
+    Vec3 pinColour = Vec3(0.85, 0.05, 0.75);  ///< linear RGB
+    Real pinPointSize = 5;                     ///< dot diameter, output pixels
     bool overlayLattice = false;
     std::string overlayLatticeSet = "boundary";
     Vec3 overlayLatticeColour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB

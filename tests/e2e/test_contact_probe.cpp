@@ -85,6 +85,8 @@ TEST_CASE("e2e: the contact highlight shows from every shipped contact scene's o
             REQUIRE(off.exitCode == 0);
             const double share = changedShare(highlighted, readPng(png), 16);
             INFO(name << ": " << 100 * share << " % of the image changed by more than 16/255");
+            std::printf("contact probe: %s frame %d: %.3f %% of the image changed by more than 16/255\n", name, frame,
+                        100 * share);
             CHECK(share >= 0.002);
             // Frame 1 has no contact: the highlight changes nothing there.
             const Run offFirst = runDgvIn(dir.path(), "-q render off.json --out o --frames 1-1");
