@@ -657,6 +657,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             const Json* v = g.get("pins");
             if (v->is_boolean()) {
                 d.pins = v->get<bool>();
+            } else if (!v->is_object()) {
+                g.fail("pins", "expected true, false or an object {\"show\", \"color\", \"point_size\"}, got " + describe(*v));
             } else {
                 g.object("pins", [&](ObjectReader& p) {
                     d.pins = p.boolean("show", true);

@@ -1,5 +1,6 @@
 // The dgv command as a user runs it: exit codes, one-line errors, nothing half-written.
 
+#include "io/png.hpp"
 #include "support/helpers.hpp"
 
 #include <catch2/catch.hpp>
@@ -287,6 +288,26 @@ TEST_CASE("cli: render with a keyframed camera, --resolution and --gl-backend", 
     auto sheet32 = [&](std::size_t at) { return (unsigned(static_cast<unsigned char>(sheet[at + 2])) << 8) | unsigned(static_cast<unsigned char>(sheet[at + 3])); };
     CHECK(sheet32(16) == 2 * 80u + 3 * 4u);
     CHECK(sheet32(20) == 40u + 2 * 4u);
+    // Each thumbnail carries its frame number at its lower left: a dark box 10 x 14 pixels at
+    // (2, 24) of the 80 x 40 thumbnail with the digit in white, "1" on the first, "2" on the second.
+    const dgv::Image sheetImage = dgv::readPng(out / "small.contact.png");
+    auto box = [&](int thumb) {
+        std::string bits;
+        const int ox = 4 + thumb * (80 + 4) + 2, oy = 4 + 24;
+        for (int y = 0; y < 14; ++y)
+            for (int x = 0; x < 10; ++x) {
+                const unsigned v = dgv::to8bit(sheetImage.pixel(ox + x, oy + y)[0]);  // the sheet is 8-bit
+                REQUIRE((v == 255 || v == dgv::to8bit(6000)));
+                bits += v == 255 ? '#' : '.';
+            }
+        return bits;
+    };
+    // "1" is .#. / ##. / .#. / .#. / ### at twice the size, 2 pixels in from the box's corner.
+    const std::string one = box(0), two = box(1);
+    CHECK(one.substr(2 * 10, 10) == "....##....");  // the digit's top row, twice
+    CHECK(one.substr(11 * 10, 10) == "..######..");  // its foot
+    CHECK(two.substr(2 * 10, 10) == "..######..");  // "2" starts with a full bar
+    CHECK(one != two);
     // --movie needs ffmpeg: without it, a clear one-line error before anything is rendered
     if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) {
         auto m = test::runDgv("render " + q(scene) + " --movie --out " + q(dir.path() / "m"));

@@ -611,3 +611,37 @@ TEST_CASE("render: ground marks colour the floor where they lie and nowhere else
     noMarks.groundMarks.clear();
     CHECK(r2.render(scene, cam).rgba == r2.render(noMarks, cam).rgba);
 }
+
+TEST_CASE("render.pins draws a pinned body's pinned points and nothing else", "[render][e2e]") {
+    test::TempDir dir("render_pins");
+    auto scene = [&](const std::string& pins) {
+        return R"({"name": "bar", "frames": {"start": 1, "end": 2},
+          "objects": [{"primitive": {"type": "box", "size": [0.8, 0.16, 0.16]}, "resolution": 12,
+                       "color": [0.3, 0.6, 0.85], "pin": {"min": [-0.5, -1, -1], "max": [-0.3, 1, 1]}}],
+          "forces": [{"type": "gravity"}],
+          "camera": {"type": "look_at", "eye": [0, 0.4, 2], "target": [0, 0, 0], "fov": 40},
+          "render": {"width": 160, "height": 90)" + pins + "}}";
+    };
+    std::ofstream(dir.path() / "on.json") << scene(R"(, "pins": true)");
+    std::ofstream(dir.path() / "off.json") << scene("");
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q render on.json --out on").exitCode == 0);
+    REQUIRE(e2e::runDgvIn(dir.path(), "-q render off.json --out off").exitCode == 0);
+    // Magenta dots (sRGB [0.93, 0.25, 0.89]) only on the pinned end, the left fifth of the bar.
+    auto magenta = [](const Image& im, int& minX, int& maxX) {
+        int n = 0;
+        minX = im.width, maxX = -1;
+        for (int y = 0; y < im.height; ++y)
+            for (int x = 0; x < im.width; ++x) {
+                const std::uint16_t* p = im.pixel(x, y);
+                if (to8bit(p[0]) > 200 && to8bit(p[1]) < 100 && to8bit(p[2]) > 190) {
+                    ++n;
+                    minX = std::min(minX, x), maxX = std::max(maxX, x);
+                }
+            }
+        return n;
+    };
+    int lo = 0, hi = 0;
+    CHECK(magenta(readPng(dir.path() / "off" / "bar.0002.png"), lo, hi) == 0);
+    CHECK(magenta(readPng(dir.path() / "on" / "bar.0002.png"), lo, hi) > 20);
+    CHECK(hi < 160 / 2 - 10);  // the pinned end is the left one
+}
