@@ -38,7 +38,7 @@ constexpr unsigned kCancelGraceSeconds = 10;
 
 extern "C" void onAlarm(int) { exitNow(); }
 
-/// The first SIGINT/SIGTERM asks the run to stop after its current step and starts the grace
+/// The first SIGINT/SIGTERM/SIGHUP asks the run to stop after its current step and starts the grace
 /// timer; a second one ends the process at once.
 extern "C" void onSignal(int) {
     static volatile std::sig_atomic_t received = 0;
@@ -242,7 +242,11 @@ int main(int argc, char** argv) {
                                                             static_cast<std::size_t>(threads));
     std::signal(SIGINT, onSignal);
     std::signal(SIGTERM, onSignal);
+    std::signal(SIGHUP, onSignal);  // a farm's or a closed terminal's hang-up stops like SIGTERM
     std::signal(SIGALRM, onAlarm);
+    // A closed pipe on stdout or stderr (`dgv render x.json 2>&1 | head -1`) must not kill the
+    // run: its writes then fail with EPIPE, and the frames go on being written.
+    std::signal(SIGPIPE, SIG_IGN);
 
     try {
         if (*cRender) return app::runRender(render);

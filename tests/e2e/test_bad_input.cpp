@@ -236,3 +236,19 @@ TEST_CASE("e2e: bad command-line options exit 2 with one line and write nothing"
          {"s.json", "output.dir", "not a folder"}},
     });
 }
+
+TEST_CASE("e2e: a scene path that is a pipe or a device exits 2 with one line instead of blocking", "[e2e][badinput]") {
+    test::TempDir dir("e2e_bad_fifo");
+    REQUIRE(std::system(("mkfifo " + quote(dir.path() / "pipe.json")).c_str()) == 0);
+    // Reading the FIFO blocked until a writer came (and /dev/zero was read without bound): a
+    // writer that opens and closes it after 5 s unblocks such a reader, so the test cannot hang.
+    const std::string unblock = "{ (sleep 5; timeout 5 sh -c ': > pipe.json') > /dev/null 2>&1 & };";
+    for (const std::string& path : {std::string("pipe.json"), std::string("/dev/zero")}) {
+        const Run r = runDgvIn(dir.path(), "render " + path + " --out o", path == "pipe.json" ? unblock : "");
+        INFO(path << ": exit " << r.exitCode << ", stderr: " << r.err);
+        CHECK(r.exitCode == 2);
+        CHECK(lineCount(r.err) == 1);
+        CHECK_THAT(r.err, Catch::Contains(path) && Catch::Contains("not a regular file"));
+        CHECK_FALSE(fs::exists(dir.path() / "o"));
+    }
+}

@@ -254,3 +254,30 @@ TEST_CASE("e2e: a second signal ends a run at once, with one line and exit 130",
     // It stopped inside the benchmark: the figures of the full frame were never printed.
     CHECK_THAT(readAll(dir.path() / "bench.out"), !Catch::Contains("vdb.frame_seconds"));
 }
+
+// A farm's hang-up and a closed pipe: SIGHUP stops a run as SIGTERM does (one line, exit 130,
+// complete frames), and a reader of stderr that goes away (`dgv ... 2>&1 | head -1`) does not
+// kill it: SIGPIPE is ignored, the writes to the pipe fail, the frames are written to the end.
+TEST_CASE("e2e: SIGHUP stops a run like SIGTERM, a closed stderr pipe does not stop it", "[e2e][faults]") {
+    test::TempDir dir("e2e_hup_pipe");
+    const int frames = 6;
+    writeScene(dir.path(), frames);
+    const std::string piped = "( " + quote(DGV_EXE) + " --progress log render small.json --out piped 2>&1; echo $? > piped.rc ) | head -c 1 > /dev/null; true;";
+    REQUIRE(runDgvIn(dir.path(), "--version", piped).exitCode == 0);
+    CHECK(std::stoi(readAll(dir.path() / "piped.rc")) == 0);
+    CHECK(namesIn(dir.path() / "piped") == frameNames(1, frames));
+    const std::string hangUp =
+        "( " + quote(DGV_EXE) + " -q render small.json --out hup & pid=$!; n=0; "
+        "while [ ! -e hup/" + frameName(1) + " ] && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
+        "kill -HUP $pid; wait $pid; echo $? > hup.rc ) 2> hup.err; true;";
+    REQUIRE(runDgvIn(dir.path(), "--version", hangUp).exitCode == 0);
+    const int rc = std::stoi(readAll(dir.path() / "hup.rc"));
+    const std::string err = readAll(dir.path() / "hup.err");
+    INFO("exit " << rc << ", stderr: " << err);
+    CHECK((rc == 130 || rc == 0));  // 0 only if it finished before the signal
+    if (rc == 130) {
+        CHECK(lineCount(err) == 1);
+        CHECK_THAT(err, Catch::Contains("interrupted"));
+    }
+    for (const std::string& name : namesIn(dir.path() / "hup")) CHECK(name.front() != '.');
+}
