@@ -194,6 +194,7 @@ int runRender(const RenderOptions& options) {
     int first = scene.frameStart, last = scene.frameEnd;
     if (!options.frames.empty()) parseFrameRange(options.frames, scene, first, last);
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();
+    if (!options.mesh.empty()) scene.output.mesh = options.mesh;
     checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out", options.outDir.empty() ? "output.dir" : "");
     if (options.width > 0) scene.render.width = options.width;
     if (options.height > 0) scene.render.height = options.height;

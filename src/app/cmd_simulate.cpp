@@ -27,6 +27,7 @@ int runSimulate(const SimulateOptions& options) {
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();
     checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out", options.outDir.empty() ? "output.dir" : "");
     const bool vdb = options.vdb || scene.output.vdb;
+    if (!options.mesh.empty()) scene.output.mesh = options.mesh;
 
     resolvePinGroups(scene);
     std::vector<BuiltObject> objects;
@@ -74,7 +75,8 @@ int runSimulate(const SimulateOptions& options) {
     }
     progress.finish();
     logInfo("wrote " + (fs::path(scene.output.dir) / "stats.csv").string() +
-            (vdb ? " and " + (fs::path(scene.output.dir) / "vdb").string() + "/" + scene.name + ".####.vdb" : ""));
+            (vdb ? " and " + (fs::path(scene.output.dir) / "vdb").string() + "/" + scene.name + ".####.vdb" : "") +
+            (scene.output.mesh.empty() ? "" : " and " + (fs::path(scene.output.dir) / "mesh").string() + "/<object>.####." + scene.output.mesh));
     return kExitOk;
 }
 

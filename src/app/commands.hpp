@@ -18,6 +18,7 @@ struct RenderOptions {
     bool contactSheet = false;  ///< also <out>/<name>.contact.png: the frames in a grid
     bool movie = false;         ///< also <out>/<name>.mp4 through ffmpeg (must be on PATH)
     bool resume = false;        ///< skip frames whose PNG is already complete (app/resume.hpp)
+    std::string mesh;           ///< --mesh ply|obj: the mesh cache (overrides output.mesh)
 };
 int runRender(const RenderOptions& options);
 
@@ -27,6 +28,7 @@ struct SimulateOptions {
     std::string outDir;
     bool vdb = false;
     bool resume = false;  ///< continue from the last valid state checkpoint (docs/robustness.md)
+    std::string mesh;     ///< --mesh ply|obj: the mesh cache (overrides output.mesh)
 };
 int runSimulate(const SimulateOptions& options);
 

@@ -43,7 +43,8 @@ void parseFrameRange(const std::string& text, const SceneDesc& scene, int& first
 
 
 DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>& objects, bool writeVdb)
-    : mScene(scene), mObjects(objects), mVdb(writeVdb) {
+    : mScene(scene), mObjects(objects), mVdb(writeVdb),
+      mMesh(scene.output.mesh.empty() ? MeshCacheFormat::None : meshCacheFormatFromName(scene.output.mesh, "output.mesh")) {
     std::vector<const Lattice*> lattices;
     for (const BuiltObject& o : objects) lattices.push_back(&o.lattice);
     mSim = std::make_unique<Simulation>(scene, lattices, writeVdb);
@@ -60,7 +61,7 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
         if (mSim->body(i)) mSim->setSurface(i, &objects[i].restMesh, &objects[i].embedding);
     mRows.push_back(statsCsvHeader());
     if (mSim->active()) mSceneKey = sceneDynamicsKey(scene, lattices);
-    if (mVdb) mFrameKey = sceneFrameKey(scene);
+    if (mVdb || mMesh != MeshCacheFormat::None) mFrameKey = sceneFrameKey(scene);
 }
 
 DynamicsRun::~DynamicsRun() = default;
@@ -84,6 +85,7 @@ void DynamicsRun::record(const FrameStats& s) {
     if (mSim->active())
         for (std::size_t i = 0; i < mObjects.size(); ++i)
             if (const DeformableBody* b = mSim->body(i)) mContactHistory[i].observe(b->contact());
+    if (mMesh != MeshCacheFormat::None && s.frame >= mFirstWritten) writeMeshes(s.frame);
     if (!mSim->active() && !mVdb) return;
     if (mVdb && s.frame >= mFirstWritten) writeVdb(s.frame);
     mRows.push_back(statsCsvRow(s));
@@ -132,6 +134,33 @@ void DynamicsRun::writeVdb(int frame) {
     const fs::path dir = fs::path(mScene.output.dir) / "vdb";
     ensureDirectory(dir);
     (void)writeVdbFrame(vdbFramePath(dir, mScene.name, frame), objs, info, set);
+}
+
+void DynamicsRun::writeMeshes(int frame) {
+    const fs::path dir = fs::path(mScene.output.dir) / "mesh";
+    ensureDirectory(dir);
+    std::vector<Vec3> positions;
+    std::vector<Real> contact;
+    for (std::size_t i = 0; i < mObjects.size(); ++i) {
+        const DeformableBody* b = body(i);
+        MeshCacheFrame f;
+        f.object = mObjects[i].name;
+        f.frame = frame;
+        f.key = mFrameKey;
+        f.colour = mObjects[i].color;
+        f.triangles = &surfaceMesh(i).triangles;
+        if (b) {
+            deformVertices(embedding(i), b->state(), positions);
+            // The contact set R (0/1 per lattice point) carried to the vertices like the positions.
+            std::vector<Real> inR(b->contact().begin(), b->contact().end());
+            pointScalarToVertices(embedding(i), inR, contact);
+            f.positions = &positions;
+            f.contact = &contact;
+        } else {
+            f.positions = &mObjects[i].restMesh.vertices;
+        }
+        writeMeshCacheFrame(meshCachePath(dir, f.object, frame, mMesh), mMesh, f);
+    }
 }
 
 void DynamicsRun::writeCheckpoint(int frame) {
@@ -190,6 +219,23 @@ int DynamicsRun::restoreCheckpoint(int frame) {
                 }
             if (badVdb >= 0 && badVdb <= k) {
                 logInfo(path.string() + ": not used: the VDB file of frame " + std::to_string(badVdb) + " " + badWhy);
+                continue;
+            }
+        }
+        if (mMesh != MeshCacheFormat::None) {
+            // The same for the mesh cache: every object's file of every frame skipped.
+            std::string why;
+            for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && why.empty(); ++f)
+                for (const BuiltObject& o : mObjects) {
+                    const fs::path file = meshCachePath(fs::path(mScene.output.dir) / "mesh", o.name, f, mMesh);
+                    const std::string problem = meshCacheFileProblem(file, mMesh, f, mFrameKey);
+                    if (!problem.empty()) {
+                        why = file.string() + " " + problem;
+                        break;
+                    }
+                }
+            if (!why.empty()) {
+                logInfo(path.string() + ": not used: the mesh cache file " + why);
                 continue;
             }
         }

@@ -1,9 +1,10 @@
 #pragma once
 // A scene's dynamics as the render and simulate commands drive it: the Simulation of the
 // scene's built objects, advanced frame by frame, with out/<scene>/stats.csv rewritten (atomically)
-// after every frame and, when the scene asks for it, the frame's VDB cache.
+// after every frame and, when the scene asks for them, the frame's VDB and mesh caches.
 
 #include "app/scene_build.hpp"
+#include "io/mesh_cache.hpp"
 #include "sim/contact_highlight.hpp"
 #include "sim/simulation.hpp"
 
@@ -56,19 +57,21 @@ public:
 private:
     void record(const FrameStats& s);
     void writeVdb(int frame);
+    void writeMeshes(int frame);
     void writeCheckpoint(int frame);
     void writeStats();
 
     const SceneDesc& mScene;
     const std::vector<BuiltObject>& mObjects;
     bool mVdb = false;
+    MeshCacheFormat mMesh = MeshCacheFormat::None;  ///< output.mesh (io/mesh_cache.hpp)
     std::unique_ptr<Simulation> mSim;
     int mDone = -1;  ///< last frame recorded
     int mFirstWritten = 0;  ///< VDB frames before this one are simulated, not written
     std::vector<std::string> mRows;
     FrameStats mLast;
     std::uint64_t mSceneKey = 0;  ///< what checkpoints must match (io/state_file.hpp)
-    std::string mFrameKey;        ///< the VDB files' dgv_key (io/state_file.hpp, sceneFrameKey)
+    std::string mFrameKey;        ///< the VDB and mesh cache files' key (io/state_file.hpp, sceneFrameKey)
     std::vector<ContactHistory> mContactHistory;  ///< per object
 };
 

@@ -155,6 +155,9 @@ int main(int argc, char** argv) {
     cRender->add_option("scene", render.scene, "Scene file (JSON, see scenes/README.md)")->required();
     cRender->add_option("--frames", render.frames, "Frame range A-B (or one frame N), within the scene's range");
     cRender->add_option("--out", render.outDir, "Output folder (default: the scene's output.dir)");
+    cRender->add_option("--mesh", render.mesh,
+                        "Also write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply)")
+        ->check(CLI::IsMember({"ply", "obj"}));
     cRender->add_option("--width", render.width, "Image width in pixels")->check(CLI::Range(16, 16384));
     cRender->add_option("--height", render.height, "Image height in pixels")->check(CLI::Range(16, 16384));
     cRender->add_option("--resolution", render.resolution, "Image size WxH, e.g. 1920x1080 (overrides the scene)");
@@ -173,6 +176,9 @@ int main(int argc, char** argv) {
     cSim->add_option("--frames", simulate.frames, "Last frame N, or A-B (frames before A are simulated, not written)");
     cSim->add_option("--out", simulate.outDir, "Output folder (default: the scene's output.dir)");
     cSim->add_flag("--vdb", simulate.vdb, "Write the VDB cache (also on when the scene sets output.vdb)");
+    cSim->add_option("--mesh", simulate.mesh,
+                     "Write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply)")
+        ->check(CLI::IsMember({"ply", "obj"}));
     cSim->add_flag("--resume", simulate.resume,
                    "Continue from the last valid state checkpoint (<out>/state/<name>.####.dgvstate)");
     cSim->footer(kExitCodes);

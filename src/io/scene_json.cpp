@@ -688,6 +688,11 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.output.vdbVoxelSize = o.number("vdb_voxel_size", 0, 0, HUGE_VAL);
         s.output.vdbHalf = o.boolean("vdb_half", false);
         s.output.vdbSurface = o.boolean("vdb_surface", false);
+        if (o.has("mesh")) {
+            const Json* m = o.get("mesh");
+            if (m->is_boolean() && !m->get<bool>()) s.output.mesh.clear();
+            else s.output.mesh = o.choice("mesh", "", {"ply", "obj"});
+        }
     });
     if (outDir.rfind("//", 0) == 0) s.output.dir = (sceneDir / outDir.substr(2)).lexically_normal().string();
     else s.output.dir = fs::absolute(outDir).lexically_normal().string();

@@ -240,6 +240,8 @@ struct OutputDesc {
     Real vdbVoxelSize = 0;   ///< world grids' voxel size; 0: the objects' (smallest) voxel size
     bool vdbHalf = false;    ///< density, vel, contact as 16-bit floats
     bool vdbSurface = false; ///< also the `surface` level set of each deformed mesh
+    /// The mesh cache (io/mesh_cache.hpp): "" (none), "ply" or "obj": <dir>/mesh/<object>.####.<ext>.
+    std::string mesh;
 };
 
 /// How contacts with colliders are found (docs/gln.md, "GLN networks and the contact set R").

@@ -1,0 +1,50 @@
+#pragma once
+/// @file mesh_cache.hpp
+/// @brief The deformed surfaces as a mesh cache (scene `output.mesh`, `--mesh`): one file per
+/// object and frame, `<dir>/mesh/<object>.####.ply` (or `.obj`), which Houdini's File SOP reads as
+/// a sequence (`$F4`) and Blender imports per frame or as a sequence. Binary little-endian PLY
+/// with positions, vertex normals, the object's colour (8-bit sRGB) and `contact` (a float per
+/// vertex: 1 where the vertex's lattice cell is all in the contact set R, 0 where none of it is);
+/// OBJ with positions and normals (`vn`, `f v//vn`). Each file carries its frame and the scene's
+/// frame key in comments, so --resume keeps only files of this version of the scene, and is
+/// written to a temporary name and renamed.
+
+#include "base/types.hpp"
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace dgv {
+
+enum class MeshCacheFormat { None, Ply, Obj };
+
+/// "ply", "obj" (an InputError naming `where` otherwise).
+MeshCacheFormat meshCacheFormatFromName(const std::string& name, const std::string& where);
+const char* meshCacheExtension(MeshCacheFormat format);
+
+struct MeshCacheFrame {
+    std::string object;                         ///< the object's name
+    int frame = 0;
+    std::string key;                            ///< the scene's frame key (io/state_file.hpp)
+    const std::vector<Vec3>* positions = nullptr;
+    const std::vector<std::array<int, 3>>* triangles = nullptr;
+    const std::vector<Real>* contact = nullptr; ///< per vertex in [0, 1], or null (all 0)
+    Vec3 colour = Vec3(0.8, 0.8, 0.8);          ///< linear RGB
+};
+
+/// <dir>/<object>.####.<ext>
+std::filesystem::path meshCachePath(const std::filesystem::path& dir, const std::string& object, int frame,
+                                    MeshCacheFormat format);
+
+/// Writes one object's frame atomically. RuntimeError naming the file on failure.
+void writeMeshCacheFrame(const std::filesystem::path& path, MeshCacheFormat format, const MeshCacheFrame& frame);
+
+/// Why the file at `path` is not a complete cache file of `frame` with key `key` ("" when it
+/// is): missing, truncated (its size is not what its header declares; OBJ: no end line), another
+/// frame's, or of another version of the scene.
+std::string meshCacheFileProblem(const std::filesystem::path& path, MeshCacheFormat format, int frame,
+                                 const std::string& key);
+
+}  // namespace dgv
