@@ -289,11 +289,15 @@ int runRender(const RenderOptions& options) {
     }
     // Footprints (render.contact.footprint): the colliders carry the highlight where bodies
     // touch them, from the collider's colour to the highlight's, and the ground plane takes
-    // marks, so a contact under a body or on its far side still shows around it.
-    // Each body's contacts show in its own highlight colour, on the body and on what it touches.
+    // marks, so a contact under a body or on its far side still shows around it. Each body's
+    // contacts show in its own highlight colour, on the body and on what it touches.
     const bool footprints = contactMode != ContactHighlightMode::Off && rd.contactFootprint;
+    std::vector<Box3> colliderBounds;  // the static colliders' bounds, for which body touches which
     if (footprints)
         for (std::size_t m = firstCollider; m < frameScene.meshes.size(); ++m) {
+            Box3 box;
+            for (const Vec3& v : frameScene.meshes[m].positions) box.extend(v);
+            colliderBounds.push_back(box);
             frameScene.meshes[m].ramp.low = frameScene.meshes[m].colour;
             frameScene.meshes[m].ramp.min = 0;
             frameScene.meshes[m].ramp.max = 1;
@@ -454,8 +458,7 @@ int runRender(const RenderOptions& options) {
                 footprintScalar(collider.positions, markPoints, markValues, reach, 1e-3, collider.scalar);
                 // One ramp per collider: the colour of the body it is touched by most (the
                 // first such body on a tie), judged by the marks within reach of its bounds.
-                Box3 box;
-                for (const Vec3& v : collider.positions) box.extend(v);
+                const Box3& box = colliderBounds[m - firstCollider];
                 std::vector<std::size_t> near(objects.size(), 0);
                 for (std::size_t k = 0; k < markPoints.size(); ++k)
                     if ((markPoints[k].array() >= box.min.array() - reach).all() &&
