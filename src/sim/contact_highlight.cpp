@@ -95,6 +95,21 @@ void spreadPointScalar(const Lattice& lat, std::vector<Real>& scalar, int rings)
     }
     for (std::size_t p = 0; p < n; ++p)
         if (!seed[p] && src[p] > 0) scalar[p] = weight(src[p], hops[p]);
+    // Just beyond the reach the value stays below zero, but only by a quarter of the last ring's:
+    // the interpolated value then crosses zero four fifths of a cell out instead of a few
+    // percent, so the highlight fades over the whole cell rather than stepping at the cells.
+    std::vector<Real> rim(n, 0);
+    parallelFor(static_cast<Index>(n), [&](Index pi) {
+        const std::size_t p = static_cast<std::size_t>(pi);
+        if (scalar[p] > 0) return;
+        Real best = 0;
+        for (const Index q : lat.neighbours[p])
+            if (q != kNoPoint && !seed[static_cast<std::size_t>(q)] && scalar[static_cast<std::size_t>(q)] > 0)
+                best = std::max(best, scalar[static_cast<std::size_t>(q)]);
+        if (best > 0) rim[p] = -0.25 * best;
+    });
+    for (std::size_t p = 0; p < n; ++p)
+        if (rim[p] < 0) scalar[p] = std::max(scalar[p], rim[p]);
 }
 
 void smoothVertexScalar(const std::vector<std::array<int, 3>>& triangles, std::vector<Real>& value, int passes) {

@@ -67,7 +67,9 @@ std::vector<Real> contactPointScalar(ContactHighlightMode mode, const std::vecto
 /// highlighted itself takes max_q s_q (1 − d_q/(rings + 1)), d_q its hops to q. The contact
 /// set R lies where the body touches, usually on the side facing away from the camera (under a
 /// landing ball, on the face towards the other ball); the band around it is what the camera
-/// sees. Points out of reach keep their value. rings ≤ 0: unchanged.
+/// sees. Points out of reach keep their value, except those next to the outermost ring, which
+/// take −1/4 of their largest spread neighbour's (when that is above their own), so the edge
+/// fades across the cell. rings ≤ 0: unchanged.
 void spreadPointScalar(const Lattice& lat, std::vector<Real>& scalar, int rings);
 
 /// Smooths a per-vertex highlight over the mesh: `passes` Jacobi sweeps of the mean over each

@@ -521,7 +521,12 @@ TEST_CASE("contact highlight: the spread over the body falls off linearly with l
     CHECK(s[1] == Approx(0.6));
     CHECK(s[2] == Approx(0.4));
     CHECK(s[3] == Approx(0.2));
-    CHECK(s[4] == -0.01);  // out of reach
+    CHECK(s[4] == -0.01);  // out of reach, and already above the rim's value (−0.05)
+    std::vector<Real> recent{1.0, -1, -1, -1, -1, -1, -1};
+    spreadPointScalar(lat, recent, 3);
+    CHECK(recent[3] == Approx(0.25));
+    CHECK(recent[4] == Approx(-0.0625));  // the rim: a quarter of the last ring's value below zero
+    CHECK(recent[5] == -1);               // beyond it, unchanged
     std::vector<Real> two{0.8, -0.01, -0.01, -0.01, 0.1, -0.01, -0.01};
     spreadPointScalar(lat, two, 3);
     CHECK(two[3] == Approx(std::max(0.8 * 0.25, 0.1 * 0.75)));  // the strong source: 0.2 > 0.075
