@@ -19,17 +19,27 @@
 using namespace dgv;
 namespace fs = std::filesystem;
 
+namespace {
+
+/// One object's frame of `mesh` (kept alive by the caller).
+MeshCacheFrame frameOf(const std::string& object, int frame, const std::string& key, const TriangleMesh& mesh) {
+    MeshCacheFrame f;
+    f.object = object;
+    f.frame = frame;
+    f.key = key;
+    f.positions = &mesh.vertices;
+    f.triangles = &mesh.triangles;
+    return f;
+}
+
+}  // namespace
+
 TEST_CASE("mesh cache: a frame reads back through assimp, with normals, colour and contact", "[io][meshcache]") {
     test::TempDir dir("mesh_cache_roundtrip");
     const TriangleMesh sphere = makeSphere(0.5, 24, 12);
     std::vector<Real> contact(sphere.vertices.size(), 0.0);
     for (std::size_t v = 0; v < contact.size(); ++v) contact[v] = sphere.vertices[v].y() < -0.4 ? 1.0 : 0.0;
-    MeshCacheFrame f;
-    f.object = "ball";
-    f.frame = 7;
-    f.key = "abc123";
-    f.positions = &sphere.vertices;
-    f.triangles = &sphere.triangles;
+    MeshCacheFrame f = frameOf("ball", 7, "abc123", sphere);
     f.contact = &contact;
     f.colour = Vec3(0.3, 0.6, 0.85);
     for (MeshCacheFormat format : {MeshCacheFormat::Ply, MeshCacheFormat::Obj}) {
@@ -69,12 +79,7 @@ TEST_CASE("mesh cache: a frame reads back through assimp, with normals, colour a
 TEST_CASE("mesh cache: truncated, foreign and other frames' files are named", "[io][meshcache]") {
     test::TempDir dir("mesh_cache_problems");
     const TriangleMesh box = makeBox(Vec3(1, 1, 1));
-    MeshCacheFrame f;
-    f.object = "box";
-    f.frame = 3;
-    f.key = "k1";
-    f.positions = &box.vertices;
-    f.triangles = &box.triangles;
+    const MeshCacheFrame f = frameOf("box", 3, "k1", box);
     for (MeshCacheFormat format : {MeshCacheFormat::Ply, MeshCacheFormat::Obj}) {
         const fs::path path = meshCachePath(dir.path(), "box", 3, format);
         CHECK(meshCacheFileProblem(path, format, 3, "k1") == "is missing");
