@@ -157,12 +157,14 @@ OrientReport orientOutward(TriangleMesh& mesh) {
     return report;
 }
 
-std::vector<Vec3> vertexNormals(const TriangleMesh& mesh) {
-    std::vector<Vec3> normals(mesh.vertices.size(), Vec3::Zero());
-    for (const auto& t : mesh.triangles) {
-        const Vec3& a = mesh.vertices[static_cast<std::size_t>(t[0])];
-        const Vec3& b = mesh.vertices[static_cast<std::size_t>(t[1])];
-        const Vec3& c = mesh.vertices[static_cast<std::size_t>(t[2])];
+std::vector<Vec3> vertexNormals(const TriangleMesh& mesh) { return vertexNormals(mesh.vertices, mesh.triangles); }
+
+std::vector<Vec3> vertexNormals(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles) {
+    std::vector<Vec3> normals(vertices.size(), Vec3::Zero());
+    for (const auto& t : triangles) {
+        const Vec3& a = vertices[static_cast<std::size_t>(t[0])];
+        const Vec3& b = vertices[static_cast<std::size_t>(t[1])];
+        const Vec3& c = vertices[static_cast<std::size_t>(t[2])];
         const Vec3 n = (b - a).cross(c - a);  // |n| = twice the area: area weighting
         for (int v : t) normals[static_cast<std::size_t>(v)] += n;
     }

@@ -70,6 +70,8 @@ OrientReport orientOutward(TriangleMesh& mesh);
 /// Per-vertex normals: area-weighted sum of incident face normals, normalised; zero for a
 /// vertex no (non-degenerate) triangle uses.
 std::vector<Vec3> vertexNormals(const TriangleMesh& mesh);
+/// The same for positions and triangles held apart (a deformed surface on its rest triangles).
+std::vector<Vec3> vertexNormals(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles);
 
 /// Taubin's λ|μ smoothing: `iterations` pairs of umbrella steps v += λ (mean of v's edge
 /// neighbours − v), then the same with μ < −λ, which undoes the shrinking of the first: a

@@ -2,6 +2,7 @@
 
 #include "base/errors.hpp"
 #include "base/image.hpp"
+#include "geom/triangle_mesh.hpp"
 #include "io/atomic_file.hpp"
 
 #include <cmath>
@@ -17,21 +18,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kObjEnd = "# end of dgv mesh cache frame";
-
-/// Area-weighted vertex normals (zero for a vertex of zero-area triangles only).
-std::vector<Vec3> normalsOf(const std::vector<Vec3>& x, const std::vector<std::array<int, 3>>& tris) {
-    std::vector<Vec3> n(x.size(), Vec3::Zero());
-    for (const auto& t : tris) {
-        const Vec3 f = (x[static_cast<std::size_t>(t[1])] - x[static_cast<std::size_t>(t[0])])
-                           .cross(x[static_cast<std::size_t>(t[2])] - x[static_cast<std::size_t>(t[0])]);
-        for (int k = 0; k < 3; ++k) n[static_cast<std::size_t>(t[k])] += f;
-    }
-    for (Vec3& v : n) {
-        const Real len = v.norm();
-        if (len > 0) v /= len;
-    }
-    return n;
-}
 
 /// Bytes per vertex and per face of the binary PLY this module writes.
 constexpr std::size_t kPlyVertexBytes = 6 * 4 + 3 + 4, kPlyFaceBytes = 1 + 3 * 4;
@@ -85,7 +71,7 @@ fs::path meshCachePath(const fs::path& dir, const std::string& object, int frame
 void writeMeshCacheFrame(const fs::path& path, MeshCacheFormat format, const MeshCacheFrame& f) {
     const std::vector<Vec3>& x = *f.positions;
     const std::vector<std::array<int, 3>>& tris = *f.triangles;
-    const std::vector<Vec3> n = normalsOf(x, tris);
+    const std::vector<Vec3> n = vertexNormals(x, tris);
     std::string out;
     if (format == MeshCacheFormat::Ply) {
         out = plyHeader(f, x.size(), tris.size());
