@@ -319,6 +319,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.collision.detect = detect == "gln" ? CollisionDesc::Detect::Gln : CollisionDesc::Detect::Sdf;
         s.collision.coarseToFine = c.boolean("coarse_to_fine", false);
         s.collision.objects = c.boolean("objects", s.collision.objects);
+        s.collision.distance = c.choice("distance", "grid", {"grid", "exact"}) == "exact" ? CollisionDesc::Distance::Exact
+                                                                                           : CollisionDesc::Distance::Grid;
         s.collision.friction = c.number("friction", s.collision.friction, 0, 1);
         s.collision.restitution = c.number("restitution", s.collision.restitution, 0, 1);
     });

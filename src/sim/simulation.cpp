@@ -288,6 +288,16 @@ Index Simulation::reparametriseDistorted(int frame) {
     return done;
 }
 
+Real Simulation::PairSurface::distance(const Vec3& x, Vec3* gradient) const {
+    if (exact) return exact->signedDistance(x, gradient);
+    if (gradient) *gradient = grid->gradient(x);
+    return grid->distance(x);
+}
+
+bool Simulation::objectContact() const {
+    return mObjectContact && (mSurfaceDistance || mScene.collision.distance == CollisionDesc::Distance::Exact);
+}
+
 void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
     const std::size_t n = mBodies.size();
     auto positions = [&](std::size_t i) -> const std::vector<Vec3>& {
@@ -299,7 +309,7 @@ void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
     for (std::size_t i = 0; i < n; ++i)
         if (mBodies[i])
             for (const Vec3& x : positions(i)) boxes[i].extend(x);
-    std::vector<std::shared_ptr<const SdfGrid>> surfaces(n);
+    std::vector<std::shared_ptr<const PairSurface>> surfaces(n);
     for (std::size_t i = 0; i < n; ++i) {
         if (!mBodies[i]) continue;
         const Real hi = mBodies[i]->lattice().spacing;
@@ -313,10 +323,16 @@ void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
                 (boxes[j].min.array() > boxes[i].max.array() + pad).any())
                 continue;
             if (!surfaces[j]) {
-                const Real voxel = 0.5 * hj;
-                const int band = std::max(3, static_cast<int>(std::ceil(2 * pad / voxel)) + 2);
-                surfaces[j] = std::make_shared<const SdfGrid>(
-                    mSurfaceDistance(latticeSurface(mBodies[j]->lattice(), positions(j)), voxel, band));
+                auto surface = std::make_shared<PairSurface>();
+                TriangleMesh mesh = latticeSurface(mBodies[j]->lattice(), positions(j));
+                if (mScene.collision.distance == CollisionDesc::Distance::Exact) {
+                    surface->exact = std::make_shared<const MeshDistance>(mesh);
+                } else {
+                    const Real voxel = 0.5 * hj;
+                    const int band = std::max(3, static_cast<int>(std::ceil(2 * pad / voxel)) + 2);
+                    surface->grid = std::make_shared<const SdfGrid>(mSurfaceDistance(mesh, voxel, band));
+                }
+                surfaces[j] = std::move(surface);
             }
             f(i, j, margin, surfaces[j]);
         }
@@ -325,7 +341,7 @@ void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
 
 std::vector<std::vector<Collider>> Simulation::substepColliders() const {
     std::vector<std::vector<Collider>> out(mBodies.size(), mColliders);
-    if (!mObjectContact || !mSurfaceDistance) return out;
+    if (!objectContact()) return out;
     // Whether each pair touches, decided once for both bodies: a point of either inside the
     // other (their lattice surfaces are faceted differently, so often only one side's points
     // are). The points of both push out of the other body, weighted as position-based dynamics
@@ -342,7 +358,7 @@ std::vector<std::vector<Collider>> Simulation::substepColliders() const {
         return mBodies[i]->totalMass() / static_cast<Real>(mBodies[i]->lattice().size());
     };
     std::vector<Touch> touch(n * n);
-    forClosePairs(true, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const SdfGrid>& distance) {
+    forClosePairs(true, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const PairSurface>& distance) {
         Touch& t = touch[i * n + j];
         t.near = true;
         t.slot = out[i].size();
@@ -360,10 +376,7 @@ std::vector<std::vector<Collider>> Simulation::substepColliders() const {
         c.velocity = mBodies[j]->predictedCentreVelocity();
         if (!mBodies[i]->anyPinned() && !mBodies[j]->anyPinned())
             c.share = pointMass(j) / (pointMass(i) + pointMass(j));
-        c.distance = [grid = distance, margin](const Vec3& x, Vec3* g) {
-            if (g) *g = grid->gradient(x);
-            return grid->distance(x) - margin;
-        };
+        c.distance = [surface = distance, margin](const Vec3& x, Vec3* g) { return surface->distance(x, g) - margin; };
         out[i].push_back(std::move(c));
     });
     for (std::size_t i = 0; i < n; ++i)
@@ -421,12 +434,12 @@ void Simulation::keepPairMomentum(const std::vector<std::vector<Collider>>& coll
 }
 
 void Simulation::checkStartOverlap() const {
-    if (!mObjectContact || !mSurfaceDistance) return;
+    if (!objectContact()) return;
     // The deepest point of each ordered pair; the first pair (in object order) past the bound is
     // reported, with its depth in world units and in voxels of the body whose point it is.
     std::size_t worstI = 0, worstJ = 0;
     Real worst = 0, worstVoxels = 0;
-    forClosePairs(false, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const SdfGrid>& distance) {
+    forClosePairs(false, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const PairSurface>& distance) {
         const Real h = mBodies[i]->lattice().spacing;
         Real deepest = 0;
         for (const Vec3& x : mBodies[i]->positions()) deepest = std::max(deepest, margin - distance->distance(x));
@@ -450,8 +463,8 @@ void Simulation::checkStartOverlap() const {
 
 Real Simulation::objectPenetration() const {
     Real deepest = 0;
-    if (!mObjectContact || !mSurfaceDistance) return deepest;
-    forClosePairs(false, [&](std::size_t i, std::size_t, Real margin, const std::shared_ptr<const SdfGrid>& distance) {
+    if (!objectContact()) return deepest;
+    forClosePairs(false, [&](std::size_t i, std::size_t, Real margin, const std::shared_ptr<const PairSurface>& distance) {
         const Real h = mBodies[i]->lattice().spacing;
         for (const Vec3& x : mBodies[i]->positions()) deepest = std::max(deepest, (margin - distance->distance(x)) / h);
     });

@@ -92,9 +92,11 @@ TEST_CASE("body contact: two jelly balls thrown at each other squash, bounce apa
     REQUIRE(off.size() == 24);
     const Real ke0 = off.front().at("kinetic_energy");
     for (const auto& row : off) CHECK(row.at("kinetic_energy") == Approx(ke0).epsilon(1e-6));
-    for (const std::string detect : {"sdf", "gln"}) {
+    // "exact": the sdf detection with the exact distance to the other body's surface.
+    for (const std::string detect : {"sdf", "gln", "exact"}) {
         INFO(detect);
-        writeBlobs(dir.path(), R"({ "restitution": 0.3, "detect": ")" + detect + R"(" })");
+        writeBlobs(dir.path(), detect == "exact" ? std::string(R"({ "restitution": 0.3, "distance": "exact" })")
+                                                 : R"({ "restitution": 0.3, "detect": ")" + detect + R"(" })");
         const e2e::Run run = e2e::runDgvIn(dir.path(), "-q simulate blobs.json --out " + detect);
         REQUIRE(run.exitCode == 0);
         const auto rows = e2e::readStatsCsv(dir.path() / detect / "stats.csv");
