@@ -40,5 +40,6 @@ void step(std::ostream& out, const BenchOptions& options);         // bench_step
 void vdb(std::ostream& out, const BenchOptions& options);          // bench_vdb.cpp
 void volume(std::ostream& out, const BenchOptions& options);       // bench_volume.cpp
 void reparametrise(std::ostream& out, const BenchOptions& options);  // bench_reparametrise.cpp
+void contact(std::ostream& out, const BenchOptions& options);        // bench_contact.cpp
 
 }  // namespace dgv::bench

@@ -18,7 +18,8 @@ int runBench(const BenchCommandOptions& options) {
     const std::map<std::string, Fn> built = {
         {"geometry", bench::geometry}, {"voxelise", bench::voxelise}, {"render", bench::render},
         {"gln", bench::gln}, {"reconstruct", bench::reconstruct}, {"volume", bench::volume},
-        {"vdb", bench::vdb}, {"step", bench::step}, {"reparametrise", bench::reparametrise}};
+        {"vdb", bench::vdb}, {"step", bench::step}, {"reparametrise", bench::reparametrise},
+        {"contact", bench::contact}};
     const std::map<std::string, std::string> coming = {
         {"step", "the dynamics"}};
     std::vector<std::string> names = options.names;
@@ -27,7 +28,7 @@ int runBench(const BenchCommandOptions& options) {
     for (const std::string& n : names) {
         if (built.count(n)) continue;
         if (coming.count(n)) throw InputError("bench", n, "not built yet (comes with " + coming.at(n) + ")");
-        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render, gln, reconstruct, volume, vdb, step, reparametrise");
+        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render, gln, reconstruct, volume, vdb, step, reparametrise, contact");
     }
     bench::BenchOptions bo;
     bo.repeats = options.repeats;

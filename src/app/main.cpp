@@ -216,7 +216,7 @@ int main(int argc, char** argv) {
 
     app::BenchCommandOptions bench;
     auto* cBench = cli.add_subcommand("bench", "Benchmarks; print 'name: value unit' lines");
-    cBench->add_option("names", bench.names, "geometry, voxelise, render, gln, reconstruct, volume, vdb, step (default: all)");
+    cBench->add_option("names", bench.names, "geometry, voxelise, render, gln, reconstruct, volume, vdb, step, reparametrise, contact (default: all)");
     cBench->add_option("--repeats", bench.repeats, "Timed repetitions")->capture_default_str()->check(CLI::Range(1, 100));
     cBench->add_flag("--quick", bench.quick, "Small problem sizes");
 

@@ -181,10 +181,15 @@ int MeshDistance::build(int first, int count, std::vector<int>& order, const std
     return id;
 }
 
-Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient) const {
+Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient, Real beyond) const {
     if (mTriangles.empty()) {
         if (gradient) *gradient = Vec3::UnitY();
         return std::numeric_limits<Real>::infinity();
+    }
+    if (const Real b2 = boxDistance2(mBounds, x); b2 > beyond * beyond) {
+        const Real b = std::sqrt(b2);
+        if (gradient) *gradient = (x - x.cwiseMax(mBounds.min).cwiseMin(mBounds.max)) / b;
+        return b;
     }
     Real best = std::numeric_limits<Real>::infinity();
     Nearest nearest;

@@ -18,6 +18,7 @@
 #include "geom/triangle_mesh.hpp"
 
 #include <array>
+#include <limits>
 #include <vector>
 
 namespace dgv {
@@ -36,7 +37,11 @@ public:
     /// Signed distance at x (negative inside); *gradient (if given) is its gradient, a unit
     /// vector: sign · (x − c)/|x − c|, or the pseudonormal at c when x lies on the surface.
     /// An empty mesh is infinitely far away (gradient +y).
-    Real signedDistance(const Vec3& x, Vec3* gradient = nullptr) const;
+    /// A point farther than `beyond` from the mesh's bounding box gets the distance to that box
+    /// instead, a lower bound of the true one (and outside, so positive), with the box's
+    /// gradient: the query a contact test needs only up to some distance costs no descent there.
+    Real signedDistance(const Vec3& x, Vec3* gradient = nullptr,
+                        Real beyond = std::numeric_limits<Real>::infinity()) const;
 
 private:
     struct Node {

@@ -289,7 +289,7 @@ Index Simulation::reparametriseDistorted(int frame) {
 }
 
 Real Simulation::PairSurface::distance(const Vec3& x, Vec3* gradient) const {
-    if (exact) return exact->signedDistance(x, gradient);
+    if (exact) return exact->signedDistance(x, gradient, beyond);
     if (gradient) *gradient = grid->gradient(x);
     return grid->distance(x);
 }
@@ -310,6 +310,9 @@ void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
         if (mBodies[i])
             for (const Vec3& x : positions(i)) boxes[i].extend(x);
     std::vector<std::shared_ptr<const PairSurface>> surfaces(n);
+    Real largestSpacing = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        if (mBodies[i]) largestSpacing = std::max(largestSpacing, mBodies[i]->lattice().spacing);
     for (std::size_t i = 0; i < n; ++i) {
         if (!mBodies[i]) continue;
         const Real hi = mBodies[i]->lattice().spacing;
@@ -327,6 +330,9 @@ void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
                 TriangleMesh mesh = latticeSurface(mBodies[j]->lattice(), positions(j));
                 if (mScene.collision.distance == CollisionDesc::Distance::Exact) {
                     surface->exact = std::make_shared<const MeshDistance>(mesh);
+                    // Every margin a body keeps from j, (h_i + h_j)/2, is below 3 of the largest
+                    // spacing: beyond that, a lower bound decides as well as the distance.
+                    surface->beyond = 3 * largestSpacing;
                 } else {
                     const Real voxel = 0.5 * hj;
                     const int band = std::max(3, static_cast<int>(std::ceil(2 * pad / voxel)) + 2);

@@ -166,6 +166,7 @@ private:
     struct PairSurface {
         std::shared_ptr<const SdfGrid> grid;       ///< collision.distance "grid"
         std::shared_ptr<const MeshDistance> exact; ///< collision.distance "exact"
+        Real beyond = 0;  ///< exact: farther than this from the surface's box, the box's distance
         Real distance(const Vec3& x, Vec3* gradient = nullptr) const;
     };
     using PairFn = std::function<void(std::size_t i, std::size_t j, Real margin,

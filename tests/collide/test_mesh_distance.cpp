@@ -150,3 +150,20 @@ TEST_CASE("mesh distance: the sign is right beside an edge four faces share", "[
         CHECK(d.signedDistance(Vec3(1 + e, 1 - e, 1 + e)) == Approx(e * std::sqrt(2.0)));
     }
 }
+
+TEST_CASE("mesh distance: beyond a given distance from the box, the box's distance bounds it", "[collide][distance]") {
+    const TriangleMesh sphere = makeSphere(0.5, 32, 16);
+    const MeshDistance d(sphere);
+    Vec3 g, gFull;
+    // Near the box: the exact distance, whatever `beyond` says of farther points.
+    const Vec3 near(0.55, 0.1, 0);
+    CHECK(d.signedDistance(near, &g, 0.2) == d.signedDistance(near, &gFull));
+    CHECK(g == gFull);
+    // Farther: the box's distance, below the true one and positive.
+    const Vec3 far(0.9, 0.8, 0);
+    const Real bound = d.signedDistance(far, &g, 0.2), exact = d.signedDistance(far, &gFull);
+    CHECK(bound == Approx(std::hypot(0.4, 0.3)).epsilon(1e-3));
+    CHECK(bound > 0.2);
+    CHECK(bound < exact);
+    CHECK(g.norm() == Approx(1).epsilon(1e-12));
+}
