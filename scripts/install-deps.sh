@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages dgv needs, only those that are missing (a second run does
-# nothing). Usage: scripts/install-deps.sh [--tests] [--fuzz]
+# nothing). Usage: scripts/install-deps.sh [--tests] [--fuzz] [--farm]
 #   --tests  also what the test suite needs (Catch2, assimp's test models, OpenVDB's tools)
 #   --fuzz   also clang and its runtime with libFuzzer (scripts/fuzz.sh)
+#   --farm   also Slurm and munge, for the one-node cluster of scripts/farm-test.sh
 set -euo pipefail
 
 build_pkgs=(build-essential cmake ninja-build pkg-config
@@ -10,13 +11,15 @@ build_pkgs=(build-essential cmake ninja-build pkg-config
   libopenvdb-dev libboost-iostreams-dev nlohmann-json3-dev libcli11-dev catch2)
 test_pkgs=(assimp-testmodels libopenvdb-tools)
 fuzz_pkgs=(clang libclang-rt-14-dev)
+farm_pkgs=(slurm-wlm munge)
 
 pkgs=("${build_pkgs[@]}")
 for arg in "$@"; do
   case "$arg" in
     --tests) pkgs+=("${test_pkgs[@]}") ;;
     --fuzz) pkgs+=("${fuzz_pkgs[@]}") ;;
-    *) echo "install-deps: unknown option '$arg' (expected --tests or --fuzz)" >&2; exit 2 ;;
+    --farm) pkgs+=("${farm_pkgs[@]}") ;;
+    *) echo "install-deps: unknown option '$arg' (expected --tests, --fuzz or --farm)" >&2; exit 2 ;;
   esac
 done
 

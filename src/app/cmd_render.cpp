@@ -155,33 +155,6 @@ Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
     return sheet;
 }
 
-/// True when `program` is an executable file in a folder of $PATH.
-bool onPath(const std::string& program) {
-    const char* path = std::getenv("PATH");
-    if (!path) return false;
-    std::string all = path;
-    std::size_t start = 0;
-    while (start <= all.size()) {
-        const std::size_t end = std::min(all.find(':', start), all.size());
-        const fs::path candidate = fs::path(all.substr(start, end - start)) / program;
-        if (end > start && access(candidate.c_str(), X_OK) == 0) return true;
-        start = end + 1;
-    }
-    return false;
-}
-
-std::string shellQuote(const std::string& s) {
-    std::string q = "'";
-    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-}
-
-std::string framePath(const std::string& dir, const std::string& name, int frame) {
-    char num[32];
-    std::snprintf(num, sizeof num, "%04d", frame);
-    return (fs::path(dir) / (name + "." + num + ".png")).string();
-}
-
 }  // namespace
 
 /// Passes of smoothVertexScalar over a body's highlight: enough to round off the lattice's
@@ -231,6 +204,7 @@ int runRender(const RenderOptions& options) {
     // so a range A-B simulates from the scene's first frame; stats.csv is rewritten each frame.
     DynamicsRun dynamics(scene, objects, scene.output.vdb);
     dynamics.setFirstWrittenFrame(first);
+    dynamics.setReadOnly(options.farmTask);
 
     RenderSettings rs;
     rs.width = scene.render.width;
@@ -502,7 +476,7 @@ int runRender(const RenderOptions& options) {
     if (!inFlight.empty()) progress.step(inFlight);
     progress.finish();
     if (cancelRequested()) return kExitInterrupted;
-    if (dynamics.done() < last) {
+    if (dynamics.done() < last && !options.farmTask) {
         // --resume kept the last frames: stats.csv, the VDB cache and the checkpoints still reach
         // the end of the range, as in an uninterrupted run.
         dynamics.restoreCheckpoint(last);

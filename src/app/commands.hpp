@@ -19,6 +19,7 @@ struct RenderOptions {
     bool movie = false;         ///< also <out>/<name>.mp4 through ffmpeg (must be on PATH)
     bool resume = false;        ///< skip frames whose PNG is already complete (app/resume.hpp)
     std::string mesh;           ///< --mesh ply|obj: the mesh cache (overrides output.mesh)
+    bool farmTask = false;      ///< one task of a farm shot: reads the state checkpoints, writes only its frames
 };
 int runRender(const RenderOptions& options);
 
@@ -60,6 +61,20 @@ struct BenchCommandOptions {
     bool quick = false;
 };
 int runBench(const BenchCommandOptions& options);
+
+struct FarmOptions {
+    std::string action;       ///< submit | status | resubmit
+    std::string scene;        ///< submit: the scene file
+    std::string dir;          ///< submit: --out (default: the scene's output.dir); status, resubmit: the shot's folder
+    int chunk = 0;            ///< submit: frames per render task
+    std::string partition;    ///< submit: Slurm partition; empty: the cluster's default
+    bool dryRun = false;      ///< print the scripts, write and submit nothing
+    bool contactSheet = false, movie = false;  ///< the check job also writes these
+    bool vdb = false;         ///< the simulation job also writes the VDB cache
+    std::string mesh;         ///< the simulation job also writes the mesh cache: ply | obj
+    bool check = false;       ///< status: exit 1 unless every frame is complete
+};
+int runFarm(const FarmOptions& options);
 
 /// The default scene: scenes/default.json under the working directory, else in the source
 /// tree dgv was built from, else <exe dir>/../share/dgv/scenes.

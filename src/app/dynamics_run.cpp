@@ -85,10 +85,11 @@ void DynamicsRun::record(const FrameStats& s) {
     if (mSim->active())
         for (std::size_t i = 0; i < mObjects.size(); ++i)
             if (const DeformableBody* b = mSim->body(i)) mContactHistory[i].observe(b->contact());
-    if (mMesh != MeshCacheFormat::None && s.frame >= mFirstWritten) writeMeshes(s.frame);
+    if (mMesh != MeshCacheFormat::None && s.frame >= mFirstWritten && !mReadOnly) writeMeshes(s.frame);
     if (!mSim->active() && !mVdb) return;
-    if (mVdb && s.frame >= mFirstWritten) writeVdb(s.frame);
+    if (mVdb && s.frame >= mFirstWritten && !mReadOnly) writeVdb(s.frame);
     mRows.push_back(statsCsvRow(s));
+    if (mReadOnly) return;
     writeStats();
     if (mSim->active() && s.frame > mScene.frameStart) writeCheckpoint(s.frame);
 }
@@ -244,7 +245,7 @@ int DynamicsRun::restoreCheckpoint(int frame) {
         for (std::size_t i = 0; i < mObjects.size(); ++i) mContactHistory[i].restore(std::move(c.contactAges[i]));
         mRows.assign(1, statsCsvHeader());
         mRows.insert(mRows.end(), c.statsRows.begin(), c.statsRows.end());
-        writeStats();
+        if (!mReadOnly) writeStats();
         mLast = FrameStats();
         mLast.frame = k;
         mDone = k;

@@ -47,6 +47,10 @@ public:
     bool active() const { return mSim->active(); }
     /// VDB frames before `frame` are simulated but not written (--frames A-B).
     void setFirstWrittenFrame(int frame) { mFirstWritten = frame; }
+    /// A farm render task (app/cmd_farm.cpp): the state checkpoints are read, never written, and
+    /// neither are stats.csv and the VDB and mesh caches, which the shot's simulation job owns; so
+    /// tasks sharing one output folder never write the same file.
+    void setReadOnly(bool readOnly) { mReadOnly = readOnly; }
     /// The rows written so far (header first).
     const std::vector<std::string>& statsRows() const { return mRows; }
     const FrameStats& lastStats() const { return mLast; }
@@ -64,6 +68,7 @@ private:
     const SceneDesc& mScene;
     const std::vector<BuiltObject>& mObjects;
     bool mVdb = false;
+    bool mReadOnly = false;  ///< setReadOnly: nothing but the frames is written
     MeshCacheFormat mMesh = MeshCacheFormat::None;  ///< output.mesh (io/mesh_cache.hpp)
     std::unique_ptr<Simulation> mSim;
     int mDone = -1;  ///< last frame recorded

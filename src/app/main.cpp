@@ -168,6 +168,9 @@ int main(int argc, char** argv) {
     cRender->add_flag("--resume", render.resume,
                       "Keep frames already complete on disk (a readable PNG of that frame); render the rest, "
                       "the simulation restarting from its last valid state checkpoint");
+    cRender->add_flag("--farm-task", render.farmTask,
+                      "One task of a farm shot (dgv farm): restart from the state checkpoints without writing them, "
+                      "stats.csv or the caches; only the frames are written");
     cRender->footer(kExitCodes);
 
     app::SimulateOptions simulate;
@@ -220,6 +223,27 @@ int main(int argc, char** argv) {
     cBench->add_option("--repeats", bench.repeats, "Timed repetitions")->capture_default_str()->check(CLI::Range(1, 100));
     cBench->add_flag("--quick", bench.quick, "Small problem sizes");
 
+    app::FarmOptions farm;
+    auto* cFarm = cli.add_subcommand("farm", "Run a shot on a Slurm cluster: submit, status, resubmit (docs/farm.md)");
+    cFarm->require_subcommand(1, 1);
+    auto* cFarmSubmit = cFarm->add_subcommand("submit", "Write the shot's Slurm batch scripts into the output folder and sbatch them");
+    cFarmSubmit->add_option("scene", farm.scene, "Scene file (JSON, see scenes/README.md)")->required();
+    cFarmSubmit->add_option("--chunk", farm.chunk, "Frames per render task")->required();
+    cFarmSubmit->add_option("--partition", farm.partition, "Slurm partition (default: the cluster's)");
+    cFarmSubmit->add_option("--out", farm.dir, "Output folder on shared storage (default: the scene's output.dir)");
+    cFarmSubmit->add_flag("--dry-run", farm.dryRun, "Print the scripts; write and submit nothing");
+    cFarmSubmit->add_flag("--vdb", farm.vdb, "The simulation job also writes the VDB cache");
+    cFarmSubmit->add_option("--mesh", farm.mesh, "The simulation job also writes the mesh cache: ply or obj")
+        ->check(CLI::IsMember({"ply", "obj"}));
+    cFarmSubmit->add_flag("--contact-sheet", farm.contactSheet, "The check job also writes <name>.contact.png");
+    cFarmSubmit->add_flag("--movie", farm.movie, "The check job also writes <name>.mp4 (ffmpeg on the node)");
+    auto* cFarmStatus = cFarm->add_subcommand("status", "What of a submitted shot is done, running or failed");
+    cFarmStatus->add_option("dir", farm.dir, "The shot's output folder")->required();
+    cFarmStatus->add_flag("--check", farm.check, "Exit 1 unless every frame is complete");
+    auto* cFarmResubmit = cFarm->add_subcommand("resubmit", "Submit again the render tasks whose frames are missing");
+    cFarmResubmit->add_option("dir", farm.dir, "The shot's output folder")->required();
+    cFarmResubmit->add_flag("--dry-run", farm.dryRun, "Print what would be submitted");
+
     try {
         cli.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -261,6 +285,10 @@ int main(int argc, char** argv) {
         if (*cBench) return app::runBench(bench);
         if (*cSim) return app::runSimulate(simulate);
         if (*cGln) return app::runGln(gln);
+        if (*cFarm) {
+            farm.action = *cFarmSubmit ? "submit" : *cFarmStatus ? "status" : "resubmit";
+            return app::runFarm(farm);
+        }
         app::RenderOptions def;
         def.scene = app::defaultScenePath();
         return app::runRender(def);

@@ -3,6 +3,12 @@
 #include "base/errors.hpp"
 #include "io/png.hpp"
 
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+
 #include <filesystem>
 #include <system_error>
 #include <utility>
@@ -11,6 +17,33 @@
 namespace dgv::app {
 
 namespace fs = std::filesystem;
+
+/// True when `program` is an executable file in a folder of $PATH.
+bool onPath(const std::string& program) {
+    const char* path = std::getenv("PATH");
+    if (!path) return false;
+    std::string all = path;
+    std::size_t start = 0;
+    while (start <= all.size()) {
+        const std::size_t end = std::min(all.find(':', start), all.size());
+        const fs::path candidate = fs::path(all.substr(start, end - start)) / program;
+        if (end > start && access(candidate.c_str(), X_OK) == 0) return true;
+        start = end + 1;
+    }
+    return false;
+}
+
+std::string shellQuote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+}
+
+std::string framePath(const std::string& dir, const std::string& name, int frame) {
+    char num[32];
+    std::snprintf(num, sizeof num, "%04d", frame);
+    return (fs::path(dir) / (name + "." + num + ".png")).string();
+}
 
 void checkOutputFolder(const std::string& dir, const std::string& input, const std::string& where) {
     if (dir.empty()) return;

@@ -8,6 +8,13 @@
 
 namespace dgv::app {
 
+/// True when `program` is an executable file in a folder of $PATH.
+bool onPath(const std::string& program);
+/// `s` in single quotes for a POSIX shell (a ' inside becomes '\'').
+std::string shellQuote(const std::string& s);
+/// <dir>/<name>.####.png: frame `frame`'s file.
+std::string framePath(const std::string& dir, const std::string& name, int frame);
+
 /// InputError (`input`: `where`: ...) when `dir`, or the nearest part of it that exists, is not
 /// a folder (e.g. --out names a file): bad input, found before any work is done.
 void checkOutputFolder(const std::string& dir, const std::string& input, const std::string& where);

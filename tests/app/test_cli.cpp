@@ -82,7 +82,7 @@ TEST_CASE("cli: a mistyped command is named with the nearest one", "[app][cli]")
     r = test::runDgv("frobnicate");
     CHECK(r.exitCode == 2);
     CHECK(r.output == "dgv: error: unknown command 'frobnicate' (commands: render, simulate, gln, imgdiff, info, "
-                      "bench; see dgv --help)\n");
+                      "bench, farm; see dgv --help)\n");
     // An extra argument after a known command keeps CLI11's message.
     r = test::runDgv("info a.obj b.obj");
     CHECK(r.exitCode == 2);
