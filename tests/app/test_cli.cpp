@@ -419,7 +419,7 @@ TEST_CASE("cli: every benchmark runs and prints name: value unit lines", "[app][
     }
     CHECK(figures >= 9);
     CHECK_THAT(r.output, Catch::Contains("geometry.") && Catch::Contains("voxelise.") && Catch::Contains("render.") &&
-                             Catch::Contains("contact_pair_r16_ratio: "));
+                             Catch::Contains("contact_pair_r8_ratio: "));
     auto unknown = test::runDgv("bench nonsense");
     CHECK(unknown.exitCode == 2);
 }
