@@ -475,7 +475,12 @@ int runRender(const RenderOptions& options) {
     writer.finish();
     if (!inFlight.empty()) progress.step(inFlight);
     progress.finish();
-    if (cancelRequested()) return kExitInterrupted;
+    if (cancelRequested()) {
+        // The signal came while the last frame was written: every frame is there, but the run
+        // was stopped, and says so as an interruption anywhere else does.
+        std::fprintf(stderr, "dgv: interrupted after the last frame; the frames written are complete\n");
+        return kExitInterrupted;
+    }
     if (dynamics.done() < last && !options.farmTask) {
         // --resume kept the last frames: stats.csv, the VDB cache and the checkpoints still reach
         // the end of the range, as in an uninterrupted run.
