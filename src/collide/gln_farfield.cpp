@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -16,10 +17,12 @@ struct NodePair {
     int a, b;
 };
 
-/// Dual-tree traversal in a fixed order: far node pairs and near leaf pairs.
-void traverse(const CurveBvh& ta, const CurveBvh& tb, Real theta, std::vector<NodePair>& far,
+/// Dual-tree traversal in a fixed order from the node pair `start`: far node pairs (appended to
+/// `far`, with the opening ratio they were accepted at) and near leaf pairs (appended to `near`).
+template <class Far>
+void traverse(const CurveBvh& ta, const CurveBvh& tb, NodePair start, Real theta, Far&& far,
               std::vector<NodePair>& near) {
-    std::vector<NodePair> stack{{0, 0}};
+    std::vector<NodePair> stack{start};
     while (!stack.empty()) {
         const NodePair p = stack.back();
         stack.pop_back();
@@ -27,7 +30,7 @@ void traverse(const CurveBvh& ta, const CurveBvh& tb, Real theta, std::vector<No
         const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
         const Real D = (A.centre - B.centre).norm();
         if (A.radius + B.radius < theta * D) {
-            far.push_back(p);
+            far(p);
         } else if (A.leaf() && B.leaf()) {
             near.push_back(p);
         } else if (B.leaf() || (!A.leaf() && A.radius >= B.radius)) {
@@ -38,6 +41,27 @@ void traverse(const CurveBvh& ta, const CurveBvh& tb, Real theta, std::vector<No
             stack.push_back({p.a, B.left});
         }
     }
+}
+
+void traverse(const CurveBvh& ta, const CurveBvh& tb, Real theta, std::vector<NodePair>& far,
+              std::vector<NodePair>& near) {
+    traverse(ta, tb, NodePair{0, 0}, theta, [&](NodePair p) { far.push_back(p); }, near);
+}
+
+/// The exact sum over the near leaf pairs, in parallel (deterministic).
+GlnSum nearSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb,
+               const std::vector<NodePair>& near, GlnKernel kernel) {
+    return parallelReduce<GlnSum>(
+        static_cast<Index>(near.size()), GlnSum{},
+        [&](GlnSum& acc, Index i) {
+            const NodePair& p = near[static_cast<std::size_t>(i)];
+            const BvhNode& A = ta.nodes[static_cast<std::size_t>(p.a)];
+            const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
+            GlnSum s = glnTile(a, A.begin, A.end, b, B.begin, B.end, kernel);
+            if (s.illConditioned > 0) s = glnTileCareful(a, A.begin, A.end, b, B.begin, B.end);
+            acc += s;
+        },
+        [](GlnSum x, const GlnSum& y) { return x += y; }, 16);
 }
 
 bool boxesDisjoint(const ClosedCurve& a, const ClosedCurve& b) {
@@ -85,17 +109,132 @@ FarFieldSum glnFarFieldSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
         out.nearEvaluated = false;
         return out;
     }
-    out.near = parallelReduce<GlnSum>(
-        out.nearTiles, GlnSum{},
-        [&](GlnSum& acc, Index i) {
-            const NodePair& p = near[static_cast<std::size_t>(i)];
-            const BvhNode& A = ta.nodes[static_cast<std::size_t>(p.a)];
-            const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
-            GlnSum s = glnTile(a, A.begin, A.end, b, B.begin, B.end, kernel);
-            if (s.illConditioned > 0) s = glnTileCareful(a, A.begin, A.end, b, B.begin, B.end);
-            acc += s;
-        },
-        [](GlnSum x, const GlnSum& y) { return x += y; }, 16);
+    out.near = nearSum(a, ta, b, tb, near, kernel);
+    return out;
+}
+
+FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb,
+                           Real theta, double budget, const std::function<bool(const FarFieldSum&)>& done,
+                           GlnKernel kernel, int maxRounds) {
+    DGV_CHECK(theta > 0 && theta < 1);
+    DGV_CHECK(budget > 0);
+    struct Far {
+        NodePair pair;
+        Real theta;  // the opening ratio the pair was accepted at
+        FarValue v;
+    };
+    struct Task {
+        NodePair pair;
+        Real theta;
+    };
+    std::vector<Far> far;
+    std::vector<NodePair> near;
+    // Traverses every task's node pair at its ratio, in parallel over blocks of tasks, and
+    // appends the far pairs (with their multipoles) and the near leaf pairs in task order: the
+    // lists are the same for any thread count.
+    auto expand = [&](const std::vector<Task>& tasks) {
+        const Index n = static_cast<Index>(tasks.size());
+        const Index blocks = std::min<Index>(n, 512);
+        std::vector<std::vector<Far>> fars(static_cast<std::size_t>(blocks));
+        std::vector<std::vector<NodePair>> nears(static_cast<std::size_t>(blocks));
+        parallelFor(blocks, [&](Index k) {
+            std::vector<Far>& f = fars[static_cast<std::size_t>(k)];
+            std::vector<NodePair>& e = nears[static_cast<std::size_t>(k)];
+            for (Index t = k * n / blocks; t < (k + 1) * n / blocks; ++t) {
+                const Task& task = tasks[static_cast<std::size_t>(t)];
+                traverse(ta, tb, task.pair, task.theta, [&](NodePair p) {
+                    f.push_back({p, task.theta,
+                                 farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)], tb.nodes[static_cast<std::size_t>(p.b)])});
+                }, e);
+            }
+        }, 1);
+        for (std::size_t k = 0; k < fars.size(); ++k) {
+            far.insert(far.end(), fars[k].begin(), fars[k].end());
+            near.insert(near.end(), nears[k].begin(), nears[k].end());
+        }
+    };
+    auto boundOf = [&] {
+        return parallelReduce<double>(
+            static_cast<Index>(far.size()), 0.0,
+            [&](double& acc, Index i) { acc += far[static_cast<std::size_t>(i)].v.bound; },
+            [](double x, double y) { return x + y; }, 4096);
+    };
+    // The first tasks: the root pair opened a few levels (as the traversal opens them), so that
+    // the first traversal has work for every thread.
+    {
+        std::vector<Task> tasks{{NodePair{0, 0}, theta}};
+        for (int level = 0; level < 8; ++level) {
+            std::vector<Task> next;
+            for (const Task& t : tasks) {
+                const BvhNode& A = ta.nodes[static_cast<std::size_t>(t.pair.a)];
+                const BvhNode& B = tb.nodes[static_cast<std::size_t>(t.pair.b)];
+                if (A.radius + B.radius < theta * (A.centre - B.centre).norm() || (A.leaf() && B.leaf())) {
+                    next.push_back(t);
+                } else if (B.leaf() || (!A.leaf() && A.radius >= B.radius)) {
+                    next.push_back({{A.left, t.pair.b}, theta});
+                    next.push_back({{A.right, t.pair.b}, theta});
+                } else {
+                    next.push_back({{t.pair.a, B.left}, theta});
+                    next.push_back({{t.pair.a, B.right}, theta});
+                }
+            }
+            tasks = std::move(next);
+        }
+        expand(tasks);
+    }
+    double bound = boundOf();
+    FarFieldSum out;
+    out.nearEvaluated = false;
+    std::size_t evaluated = 0;  // near tiles summed so far: they stay exact, whatever is refined
+    double target = budget;
+    // Refine where the bound is: every far pair whose bound is over its even share of half the
+    // target is opened again at half the ratio it was accepted at. The pairs under their share
+    // sum to under half the target, and an opened pair's bound falls by about 2^3 or more
+    // (bvh.hpp), so a few rounds bring the whole under it, with exact pairs only where the far
+    // field was weak. Once under, the near tiles added since the last try are summed and
+    // `done` asked; if it declines, the target halves and the refinement goes on.
+    for (int round = 0; round <= maxRounds; ++round) {
+        if (bound <= target) {
+            GlnSum added = nearSum(a, ta, b, tb, std::vector<NodePair>(near.begin() + static_cast<std::ptrdiff_t>(evaluated), near.end()), kernel);
+            out.near += added;
+            evaluated = near.size();
+            const FarValue fv = parallelReduce<FarValue>(
+                static_cast<Index>(far.size()), FarValue{},
+                [&](FarValue& acc, Index i) {
+                    const FarValue& v = far[static_cast<std::size_t>(i)].v;
+                    acc.value += v.value;
+                    acc.bound += v.bound + std::abs(v.value) * 0x1p-50;  // the sum's own rounding
+                },
+                [](FarValue x, const FarValue& y) {
+                    x.value += y.value;
+                    x.bound += y.bound;
+                    return x;
+                },
+                256);
+            out.farPairs = static_cast<Index>(far.size());
+            out.nearTiles = static_cast<Index>(near.size());
+            out.farValue = fv.value;
+            out.farBound = fv.bound + 0x1p-50 * std::abs(fv.value) * std::sqrt(static_cast<double>(far.size()) + 1);
+            out.smallestTheta = 1;
+            for (const Far& f : far) out.smallestTheta = std::min(out.smallestTheta, f.theta);
+            out.nearEvaluated = true;
+            if (done(out)) return out;
+            target = 0.5 * std::min(target, bound);
+        }
+        if (round == maxRounds) break;
+        const double share = 0.5 * target / static_cast<double>(far.size());
+        std::vector<Far> kept;
+        kept.reserve(far.size());
+        std::vector<Task> opened;
+        for (const Far& f : far) {
+            if (f.v.bound > share) opened.push_back({f.pair, Real(0.5) * f.theta});
+            else kept.push_back(f);
+        }
+        far = std::move(kept);
+        expand(opened);
+        bound = boundOf();
+        ++out.rounds;
+    }
     return out;
 }
 
@@ -118,6 +257,31 @@ GlnResult linkingNumber(const ClosedCurve& ca, const ClosedCurve& cb, const GlnS
     const bool direct = !st.farField || r.segmentsA * r.segmentsB <= st.directPairs;
     if (!direct) {
         const CurveBvh ta = buildCurveBvh(a, st.leafSize), tb = buildCurveBvh(b, st.leafSize);
+        if (st.adaptive) {
+            // Tried as soon as the far bound is under the budget, then at each halving of it.
+            auto accept = [&](const FarFieldSum& f) {
+                ++r.passes;
+                const LinkValue near = toLinkValue(f.near);
+                r.raw = near.raw + f.farValue;
+                r.bound = near.bound + f.farBound;
+                r.pairsExact = f.near.pairs;
+                r.farPairs = f.farPairs;
+                r.intersections = f.near.intersections;
+                r.theta = f.smallestTheta;
+                char m[96];
+                std::snprintf(m, sizeof m, "adaptive far field (theta = %g to %g, %d rounds)", st.theta, f.smallestTheta,
+                              f.rounds);
+                r.method = m;
+                if (r.intersections > 0) {
+                    r.status = GlnStatus::Intersect;
+                    return true;
+                }
+                return certify(r.raw, r.bound, r.linking);
+            };
+            if (glnAdaptiveSum(a, ta, b, tb, st.theta, st.budget, accept, st.kernel, st.adaptiveRounds).nearEvaluated &&
+                (r.status == GlnStatus::Intersect || certify(r.raw, r.bound, r.linking)))
+                return r;
+        }
         Real theta = st.theta;
         for (int pass = 0; pass < st.refinements; ++pass, theta *= 0.5) {
             // A far bound over 0.45 leaves too little room to certify: skip this θ's near field.

@@ -15,6 +15,7 @@
 #include "collide/gln_exact.hpp"
 
 #include <cmath>
+#include <functional>
 #include <string>
 
 namespace dgv {
@@ -29,6 +30,8 @@ struct FarFieldSum {
     Index farPairs = 0;    ///< node pairs evaluated by multipole
     Index nearTiles = 0;   ///< leaf pairs evaluated exactly
     bool nearEvaluated = true;  ///< false: farBound exceeded maxFarBound, the near field was skipped
+    int rounds = 0;             ///< glnAdaptiveSum: refinement rounds taken
+    Real smallestTheta = 1;     ///< glnAdaptiveSum: the smallest opening ratio a far pair was accepted at
 };
 /// `maxFarBound`: when the far field's bound alone exceeds it (so the sum could not certify),
 /// the near field is not evaluated (the driver then tries a smaller θ at little cost).
@@ -42,7 +45,12 @@ struct GlnSettings {
     int refinements = 8;           ///< far-field passes at θ, θ/2, ... before the direct sum; a
                                    ///< pass whose far bound alone is over 0.45 skips its near field
     Index directPairs = Index(1) << 23;  ///< at most this many pairs: direct sum at once
-    int leafSize = 32;             ///< segments per BVH leaf
+    int leafSize = 16;             ///< segments per BVH leaf
+    /// Refine the far field where its bound is (glnAdaptiveSum) before the passes at uniform θ,
+    /// which remain the fallback when it cannot certify.
+    bool adaptive = true;
+    double budget = 0.45;          ///< adaptive: the far bound at which the sum is first tried
+    int adaptiveRounds = 12;       ///< adaptive: refinement rounds at most
 };
 
 enum class GlnStatus { Certified, Intersect, Uncertain };
@@ -62,6 +70,17 @@ struct GlnResult {
     bool avx2 = false;       ///< the AVX2 kernel ran
     std::string method;      ///< "bounding boxes disjoint", "direct", "far field (theta = ...)"
 };
+
+/// The far-field sum refined where its bound is (docs/gln.md, "Adaptive refinement"): node
+/// pairs accepted at θ, then, round by round, every far pair whose bound is over its even share
+/// of half the target opened again at half the ratio it was accepted at. When the far bound is
+/// at most the target (first `budget`), the near leaf pairs found since the last try are summed
+/// exactly (each once: refining the far field never touches them) and `done` is asked; if it
+/// declines, the target halves and refinement goes on, for at most `maxRounds` rounds. Returns
+/// the last sum tried (nearEvaluated false: none was). Parallel and deterministic.
+FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb,
+                           Real theta, double budget, const std::function<bool(const FarFieldSum&)>& done,
+                           GlnKernel kernel = GlnKernel::Auto, int maxRounds = 12);
 
 /// The certified linking number. Curves need at least 3 vertices (checked).
 GlnResult linkingNumber(const ClosedCurve& a, const ClosedCurve& b, const GlnSettings& settings = {});
