@@ -51,6 +51,11 @@ void checkOutputFolder(const std::string& dir, const std::string& input, const s
     for (;;) {
         std::error_code ec;
         const fs::file_status st = fs::status(p, ec);  // ENOTDIR below a file: "not found", go up
+        // A symbolic link to nothing: making the folder would fail with only "File exists".
+        if (!fs::exists(st) && fs::is_symlink(fs::symlink_status(p, ec)))
+            throw InputError(input, where,
+                             dir + ": not a folder (" + p.string() + " is a symbolic link to '" +
+                                 fs::read_symlink(p, ec).string() + "', which does not exist)");
         if (fs::exists(st)) {
             if (fs::is_directory(st)) return;
             throw InputError(input, where,

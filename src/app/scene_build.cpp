@@ -2,6 +2,7 @@
 
 #include "base/errors.hpp"
 #include "geom/primitives.hpp"
+#include "geom/triangle_mesh.hpp"
 #include "io/mesh_import.hpp"
 
 #include <cstdio>
@@ -58,6 +59,18 @@ BuiltObject buildObject(const SceneDesc& scene, int index) {
     obj.color = desc.color;
     obj.restMesh = objectMesh(desc, scene.path, index);
     obj.meshReport = analyseMesh(obj.restMesh);
+    // A flat mesh (a single triangle, a plane) bounds no volume: voxelised as an open mesh it
+    // becomes a sheet one voxel thick with no complete cell, whose dynamics went non-finite.
+    {
+        const Box3 box = meshBounds(obj.restMesh);
+        const Vec3 size = box.size();
+        const Real largest = size.maxCoeff();
+        for (int a = 0; a < 3; ++a)
+            if (!(size[a] > 1e-9 * largest))
+                throw InputError(scene.path, "objects[" + std::to_string(index) + "]",
+                                 "the mesh of \"" + desc.name + "\" is flat (its size along " + std::string(1, "xyz"[a]) +
+                                     " is 0), so it bounds no volume; give it a thickness");
+    }
     try {
         obj.lattice = voxelise(obj.restMesh, desc.voxel, &obj.voxelReport);
     } catch (const InputError& e) {

@@ -18,6 +18,10 @@
 namespace dgv {
 namespace {
 
+/// The longest scene or object name: it names output files (file names have 255 bytes at most).
+constexpr std::size_t kMaxNameLength = 200;
+
+
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
@@ -304,6 +308,12 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     for (char c : s.name)
         if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'))
             r.fail("name", "use letters, digits, '_' and '-' only (it names output files), got \"" + s.name + "\"");
+    // It names files such as .<name>.0001.png.tmp-<pid>: at most 200 characters keeps every one
+    // under the 255 a file name may have (a longer one failed only after the setup, on the first
+    // frame's write).
+    if (s.name.size() > kMaxNameLength)
+        r.fail("name", "use at most " + std::to_string(kMaxNameLength) + " characters (it names output files), got " +
+                           std::to_string(s.name.size()));
 
     r.object("frames", [&](ObjectReader& f) {
         s.frameStart = f.integer("start", 1, 0, 999999);
@@ -328,6 +338,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     r.array("objects", [&](ObjectReader& o, int i) {
         ObjectDesc d;
         d.name = o.string("name", "object" + std::to_string(i));
+        if (d.name.size() > kMaxNameLength)
+            o.fail("name", "use at most " + std::to_string(kMaxNameLength) + " characters (it names mesh cache files), got " +
+                               std::to_string(d.name.size()));
         bool hasMesh = o.has("mesh"), hasPrim = o.has("primitive");
         if (hasMesh == hasPrim) o.fail("", "give exactly one of 'mesh' (a file) or 'primitive'");
         if (hasMesh) {

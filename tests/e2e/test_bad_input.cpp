@@ -119,6 +119,11 @@ TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one l
          {"s.json", "objects[0].resolution", "0"}},
         {"render width 0", {{"s.json", R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"width": 0}})"}},
          "render s.json", {"s.json", "render.width", "got 0"}},
+        // A scene name of 300 characters failed only at the first frame's write ("File name too long").
+        {"scene name longer than a file name allows", {{"s.json", sphereScene(R"(, "name": ")" + std::string(300, 'n') + "\"")}},
+         "render s.json", {"s.json", "name", "at most 200 characters", "got 300"}},
+        {"object name longer than a file name allows", {{"s.json", sphereScene("", R"(, "name": ")" + std::string(201, 'o') + "\"")}},
+         "render s.json", {"s.json", "objects[0].name", "at most 200 characters", "got 201"}},
     });
 }
 
@@ -177,6 +182,10 @@ TEST_CASE("e2e: bad meshes exit 2 with one line and write nothing", "[e2e][badin
          {"bad.off", "line 7", "face vertex index '7'"}},
         {"OFF with a bad face index (info)", {{"bad.off", offBadIndex}}, "info bad.off",
          {"bad.off", "line 7", "face vertex index '7'"}},
+        // A single triangle voxelised as an open mesh became a sheet one voxel thick, and its
+        // dynamics went non-finite at frame 2.
+        {"a single triangle as an object", {{"s.json", meshScene("tri.obj")}, {"tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}},
+         "render s.json", {"s.json", "objects[0]", "is flat (its size along z is 0)", "give it a thickness"}},
     });
 }
 
@@ -250,5 +259,22 @@ TEST_CASE("e2e: a scene path that is a pipe or a device exits 2 with one line in
         CHECK(lineCount(r.err) == 1);
         CHECK_THAT(r.err, Catch::Contains(path) && Catch::Contains("not a regular file"));
         CHECK_FALSE(fs::exists(dir.path() / "o"));
+    }
+}
+
+TEST_CASE("e2e: an output folder that is a dangling symbolic link exits 2 naming the link's target", "[e2e][badinput]") {
+    // Making the folder failed after the setup, with only "File exists".
+    test::TempDir dir("e2e_bad_out_link");
+    std::ofstream(dir.path() / "s.json") << sphereScene("");
+    fs::create_symlink(dir.path() / "missing" / "folder", dir.path() / "o");
+    for (const std::string out : {"o", "o/frames"}) {
+        const Run r = runDgvIn(dir.path(), "render s.json --out " + out);
+        INFO("--out " << out << ": exit " << r.exitCode << ", stderr: " << r.err);
+        CHECK(r.exitCode == 2);
+        CHECK(lineCount(r.err) == 1);
+        CHECK_THAT(r.err, Catch::Contains("--out") && Catch::Contains("symbolic link") &&
+                              Catch::Contains("missing/folder") && Catch::Contains("which does not exist"));
+        CHECK(r.out.empty());
+        CHECK_FALSE(fs::exists(dir.path() / "missing"));
     }
 }
