@@ -48,13 +48,13 @@ void traverse(const CurveBvh& ta, const CurveBvh& tb, Real theta, std::vector<No
     traverse(ta, tb, NodePair{0, 0}, theta, [&](NodePair p) { far.push_back(p); }, near);
 }
 
-/// The exact sum over the near leaf pairs, in parallel (deterministic).
+/// The exact sum over the near leaf pairs near[from, near.size()), in parallel (deterministic).
 GlnSum nearSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb,
-               const std::vector<NodePair>& near, GlnKernel kernel) {
+               const std::vector<NodePair>& near, GlnKernel kernel, std::size_t from = 0) {
     return parallelReduce<GlnSum>(
-        static_cast<Index>(near.size()), GlnSum{},
+        static_cast<Index>(near.size() - from), GlnSum{},
         [&](GlnSum& acc, Index i) {
-            const NodePair& p = near[static_cast<std::size_t>(i)];
+            const NodePair& p = near[from + static_cast<std::size_t>(i)];
             const BvhNode& A = ta.nodes[static_cast<std::size_t>(p.a)];
             const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
             GlnSum s = glnTile(a, A.begin, A.end, b, B.begin, B.end, kernel);
@@ -62,6 +62,27 @@ GlnSum nearSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const C
             acc += s;
         },
         [](GlnSum x, const GlnSum& y) { return x += y; }, 16);
+}
+
+/// The sum of n far pairs' multipoles and their bounds (`valueOf(i)`: pair i's), the bound
+/// widened by the sum's own rounding. Parallel and deterministic.
+template <class ValueOf>
+FarValue sumFar(Index n, ValueOf&& valueOf) {
+    FarValue fv = parallelReduce<FarValue>(
+        n, FarValue{},
+        [&](FarValue& acc, Index i) {
+            const FarValue v = valueOf(i);
+            acc.value += v.value;
+            acc.bound += v.bound + std::abs(v.value) * 0x1p-50;  // each term's rounding
+        },
+        [](FarValue x, const FarValue& y) {
+            x.value += y.value;
+            x.bound += y.bound;
+            return x;
+        },
+        256);
+    fv.bound += 0x1p-50 * std::abs(fv.value) * std::sqrt(static_cast<double>(n) + 1);
+    return fv;
 }
 
 bool boxesDisjoint(const ClosedCurve& a, const ClosedCurve& b) {
@@ -89,22 +110,12 @@ FarFieldSum glnFarFieldSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
     FarFieldSum out;
     out.farPairs = static_cast<Index>(far.size());
     out.nearTiles = static_cast<Index>(near.size());
-    const FarValue fv = parallelReduce<FarValue>(
-        out.farPairs, FarValue{},
-        [&](FarValue& acc, Index i) {
-            const NodePair& p = far[static_cast<std::size_t>(i)];
-            const FarValue v = farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)], tb.nodes[static_cast<std::size_t>(p.b)]);
-            acc.value += v.value;
-            acc.bound += v.bound + std::abs(v.value) * 0x1p-50;  // the sum's own rounding
-        },
-        [](FarValue x, const FarValue& y) {
-            x.value += y.value;
-            x.bound += y.bound;
-            return x;
-        },
-        256);
+    const FarValue fv = sumFar(out.farPairs, [&](Index i) {
+        const NodePair& p = far[static_cast<std::size_t>(i)];
+        return farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)], tb.nodes[static_cast<std::size_t>(p.b)]);
+    });
     out.farValue = fv.value;
-    out.farBound = fv.bound + 0x1p-50 * std::abs(fv.value) * std::sqrt(static_cast<double>(far.size()) + 1);
+    out.farBound = fv.bound;
     if (!(out.farBound <= maxFarBound)) {
         out.nearEvaluated = false;
         return out;
@@ -195,26 +206,14 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
     // `done` asked; if it declines, the target halves and the refinement goes on.
     for (int round = 0; round <= maxRounds; ++round) {
         if (bound <= target) {
-            GlnSum added = nearSum(a, ta, b, tb, std::vector<NodePair>(near.begin() + static_cast<std::ptrdiff_t>(evaluated), near.end()), kernel);
-            out.near += added;
+            out.near += nearSum(a, ta, b, tb, near, kernel, evaluated);
             evaluated = near.size();
-            const FarValue fv = parallelReduce<FarValue>(
-                static_cast<Index>(far.size()), FarValue{},
-                [&](FarValue& acc, Index i) {
-                    const FarValue& v = far[static_cast<std::size_t>(i)].v;
-                    acc.value += v.value;
-                    acc.bound += v.bound + std::abs(v.value) * 0x1p-50;  // the sum's own rounding
-                },
-                [](FarValue x, const FarValue& y) {
-                    x.value += y.value;
-                    x.bound += y.bound;
-                    return x;
-                },
-                256);
+            const FarValue fv =
+                sumFar(static_cast<Index>(far.size()), [&](Index i) { return far[static_cast<std::size_t>(i)].v; });
             out.farPairs = static_cast<Index>(far.size());
             out.nearTiles = static_cast<Index>(near.size());
             out.farValue = fv.value;
-            out.farBound = fv.bound + 0x1p-50 * std::abs(fv.value) * std::sqrt(static_cast<double>(far.size()) + 1);
+            out.farBound = fv.bound;
             out.smallestTheta = 1;
             for (const Far& f : far) out.smallestTheta = std::min(out.smallestTheta, f.theta);
             out.nearEvaluated = true;
@@ -257,30 +256,32 @@ GlnResult linkingNumber(const ClosedCurve& ca, const ClosedCurve& cb, const GlnS
     const bool direct = !st.farField || r.segmentsA * r.segmentsB <= st.directPairs;
     if (!direct) {
         const CurveBvh ta = buildCurveBvh(a, st.leafSize), tb = buildCurveBvh(b, st.leafSize);
+        // The result of a far-field sum, with its method's name.
+        auto record = [&](const FarFieldSum& f, Real theta, const std::string& method) {
+            const LinkValue near = toLinkValue(f.near);
+            r.raw = near.raw + f.farValue;
+            r.bound = near.bound + f.farBound;
+            r.pairsExact = f.near.pairs;
+            r.farPairs = f.farPairs;
+            r.intersections = f.near.intersections;
+            r.theta = theta;
+            r.method = method;
+        };
         if (st.adaptive) {
             // Tried as soon as the far bound is under the budget, then at each halving of it.
+            bool decided = false;
             auto accept = [&](const FarFieldSum& f) {
                 ++r.passes;
-                const LinkValue near = toLinkValue(f.near);
-                r.raw = near.raw + f.farValue;
-                r.bound = near.bound + f.farBound;
-                r.pairsExact = f.near.pairs;
-                r.farPairs = f.farPairs;
-                r.intersections = f.near.intersections;
-                r.theta = f.smallestTheta;
                 char m[96];
                 std::snprintf(m, sizeof m, "adaptive far field (theta = %g to %g, %d rounds)", st.theta, f.smallestTheta,
                               f.rounds);
-                r.method = m;
-                if (r.intersections > 0) {
-                    r.status = GlnStatus::Intersect;
-                    return true;
-                }
-                return certify(r.raw, r.bound, r.linking);
+                record(f, f.smallestTheta, m);
+                if (r.intersections > 0) r.status = GlnStatus::Intersect;
+                decided = r.intersections > 0 || certify(r.raw, r.bound, r.linking);
+                return decided;
             };
-            if (glnAdaptiveSum(a, ta, b, tb, st.theta, st.budget, accept, st.kernel, st.adaptiveRounds).nearEvaluated &&
-                (r.status == GlnStatus::Intersect || certify(r.raw, r.bound, r.linking)))
-                return r;
+            (void)glnAdaptiveSum(a, ta, b, tb, st.theta, st.budget, accept, st.kernel, st.adaptiveRounds);
+            if (decided) return r;
         }
         Real theta = st.theta;
         for (int pass = 0; pass < st.refinements; ++pass, theta *= 0.5) {
@@ -289,16 +290,9 @@ GlnResult linkingNumber(const ClosedCurve& ca, const ClosedCurve& cb, const GlnS
             const FarFieldSum f = glnFarFieldSum(a, ta, b, tb, theta, st.kernel, last ? HUGE_VAL : 0.45);
             ++r.passes;
             if (!f.nearEvaluated) continue;
-            const LinkValue near = toLinkValue(f.near);
-            r.raw = near.raw + f.farValue;
-            r.bound = near.bound + f.farBound;
-            r.pairsExact = f.near.pairs;
-            r.farPairs = f.farPairs;
-            r.intersections = f.near.intersections;
-            r.theta = theta;
             char m[64];
             std::snprintf(m, sizeof m, "far field (theta = %g)", theta);
-            r.method = m;
+            record(f, theta, m);
             if (r.intersections > 0) {
                 r.status = GlnStatus::Intersect;
                 return r;
