@@ -7,11 +7,16 @@
 #include "io/mesh_import.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 
 namespace dgv::app {
 
 int runInfo(const InfoOptions& options) {
+    // A scene file given where a mesh is expected: assimp said only "No suitable reader found".
+    if (std::filesystem::path(options.mesh).extension() == ".json")
+        throw InputError(options.mesh, "", "is a scene file; 'dgv info' reads a mesh (give the mesh file the scene names, "
+                                           "or run 'dgv render' or 'dgv simulate' on the scene)");
     MeshImportOptions importOptions;
     importOptions.meshName = options.meshName;
     MeshImportReport importReport;

@@ -162,6 +162,8 @@ TEST_CASE("e2e: bad meshes exit 2 with one line and write nothing", "[e2e][badin
         {"missing mesh file", {{"s.json", meshScene("missing.obj")}}, "render s.json",
          {"s.json", "objects[0].mesh", "missing.obj"}},
         {"missing mesh file (info)", {}, "info missing.obj", {"missing.obj", "file not found"}},
+        {"a scene file given to info", {{"s.json", meshScene("m.obj")}}, "info s.json",
+         {"s.json", "is a scene file", "'dgv info' reads a mesh"}},
         {"mesh path is a folder (info)", {{"d.obj/x", ""}}, "info d.obj", {"d.obj", "directory"}},
         {"random bytes as .obj", {{"s.json", meshScene("noise.obj")}, {"noise.obj", noise(2048, 1)}}, "render s.json",
          {"noise.obj"}},
