@@ -4,6 +4,7 @@
 #include "base/parallel.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -255,7 +256,11 @@ GlnResult linkingNumber(const ClosedCurve& ca, const ClosedCurve& cb, const GlnS
 
     const bool direct = !st.farField || r.segmentsA * r.segmentsB <= st.directPairs;
     if (!direct) {
-        const CurveBvh ta = buildCurveBvh(a, st.leafSize), tb = buildCurveBvh(b, st.leafSize);
+        // The two hierarchies are independent: one on each core.
+        std::array<CurveBvh, 2> trees;
+        parallelFor(2, [&](Index i) { trees[static_cast<std::size_t>(i)] = buildCurveBvh(i == 0 ? a : b, st.leafSize); }, 1);
+        const CurveBvh& ta = trees[0];
+        const CurveBvh& tb = trees[1];
         // The result of a far-field sum, with its method's name.
         auto record = [&](const FarFieldSum& f, Real theta, const std::string& method) {
             const LinkValue near = toLinkValue(f.near);
