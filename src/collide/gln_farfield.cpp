@@ -18,8 +18,26 @@ struct NodePair {
     int a, b;
 };
 
-/// Dual-tree traversal in a fixed order from the node pair `start`: far node pairs (appended to
-/// `far`, with the opening ratio they were accepted at) and near leaf pairs (appended to `near`).
+/// What the traversal does with a node pair at opening ratio theta: accept it as far, evaluate
+/// it exactly (two leaves not separated), or open it.
+enum class Open { Far, Near, Split };
+Open classify(const CurveBvh& ta, const CurveBvh& tb, NodePair p, Real theta) {
+    const BvhNode& A = ta.nodes[static_cast<std::size_t>(p.a)];
+    const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
+    if (A.radius + B.radius < theta * (A.centre - B.centre).norm()) return Open::Far;
+    return A.leaf() && B.leaf() ? Open::Near : Open::Split;
+}
+
+/// The two pairs an opened pair becomes: the larger node's children with the other node.
+std::array<NodePair, 2> children(const CurveBvh& ta, const CurveBvh& tb, NodePair p) {
+    const BvhNode& A = ta.nodes[static_cast<std::size_t>(p.a)];
+    const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
+    if (B.leaf() || (!A.leaf() && A.radius >= B.radius)) return {{{A.left, p.b}, {A.right, p.b}}};
+    return {{{p.a, B.left}, {p.a, B.right}}};
+}
+
+/// Dual-tree traversal in a fixed order from the node pair `start`: far node pairs (handed to
+/// `far`) and near leaf pairs (appended to `near`).
 template <class Far>
 void traverse(const CurveBvh& ta, const CurveBvh& tb, NodePair start, Real theta, Far&& far,
               std::vector<NodePair>& near) {
@@ -27,19 +45,15 @@ void traverse(const CurveBvh& ta, const CurveBvh& tb, NodePair start, Real theta
     while (!stack.empty()) {
         const NodePair p = stack.back();
         stack.pop_back();
-        const BvhNode& A = ta.nodes[static_cast<std::size_t>(p.a)];
-        const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
-        const Real D = (A.centre - B.centre).norm();
-        if (A.radius + B.radius < theta * D) {
-            far(p);
-        } else if (A.leaf() && B.leaf()) {
-            near.push_back(p);
-        } else if (B.leaf() || (!A.leaf() && A.radius >= B.radius)) {
-            stack.push_back({A.right, p.b});
-            stack.push_back({A.left, p.b});
-        } else {
-            stack.push_back({p.a, B.right});
-            stack.push_back({p.a, B.left});
+        switch (classify(ta, tb, p, theta)) {
+            case Open::Far: far(p); break;
+            case Open::Near: near.push_back(p); break;
+            case Open::Split: {
+                const std::array<NodePair, 2> c = children(ta, tb, p);
+                stack.push_back(c[1]);
+                stack.push_back(c[0]);  // the first child is visited first
+                break;
+            }
         }
     }
 }
@@ -178,16 +192,10 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
         for (int level = 0; level < 8; ++level) {
             std::vector<Task> next;
             for (const Task& t : tasks) {
-                const BvhNode& A = ta.nodes[static_cast<std::size_t>(t.pair.a)];
-                const BvhNode& B = tb.nodes[static_cast<std::size_t>(t.pair.b)];
-                if (A.radius + B.radius < theta * (A.centre - B.centre).norm() || (A.leaf() && B.leaf())) {
+                if (classify(ta, tb, t.pair, theta) != Open::Split) {
                     next.push_back(t);
-                } else if (B.leaf() || (!A.leaf() && A.radius >= B.radius)) {
-                    next.push_back({{A.left, t.pair.b}, theta});
-                    next.push_back({{A.right, t.pair.b}, theta});
                 } else {
-                    next.push_back({{t.pair.a, B.left}, theta});
-                    next.push_back({{t.pair.a, B.right}, theta});
+                    for (const NodePair& c : children(ta, tb, t.pair)) next.push_back({c, theta});
                 }
             }
             tasks = std::move(next);
