@@ -9,8 +9,8 @@
 #include "app/resume.hpp"
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
-#include "io/png.hpp"
 #include "io/scene_json.hpp"
+#include "io/state_file.hpp"
 
 #include <spawn.h>
 #include <sys/wait.h>
@@ -44,6 +44,9 @@ struct Shot {
     bool simulate = false;  ///< a simulation job was submitted
     std::string partition;
     std::string simJob, renderJob, checkJob;  ///< Slurm job ids ("" when not submitted)
+    // From the scene file as it is now (loadShot): what a complete frame of it looks like.
+    int width = 0, height = 0;
+    std::string key;  ///< the scene's frame key (io/state_file.hpp)
 
     int tasks() const { return (last - first + chunk) / chunk; }
     int taskFirst(int t) const { return first + t * chunk; }
@@ -200,19 +203,14 @@ std::string selfPath() {
 }
 
 /// A frame is done when its PNG decodes in full and says it is that frame.
-bool frameDone(const Shot& s, int frame) {
-    const std::string path = framePath(s.dir, s.name, frame);
-    std::error_code ec;
-    if (!fs::is_regular_file(path, ec)) return false;
-    try {
-        std::vector<std::pair<std::string, std::string>> text;
-        readPng(path, &text);
-        for (const auto& [k, v] : text)
-            if (k == "dgv:frame") return v == std::to_string(frame);
-        return false;
-    } catch (const std::exception&) {
-        return false;
-    }
+/// Which of the shot's frames, first to last, are on disk, whole and of this version of the
+/// scene: the test `render --resume` applies (app/resume.hpp), so a frame left from an edited
+/// scene is not done.
+std::vector<char> framesDone(const Shot& s) {
+    std::vector<char> done;
+    for (int f = s.first; f <= s.last; ++f)
+        done.push_back(frameIsComplete(framePath(s.dir, s.name, f), f, s.width, s.height, s.key, nullptr, true) ? 1 : 0);
+    return done;
 }
 
 /// The exit code a job's marker holds, or -1 when it has none yet.
@@ -225,10 +223,11 @@ int markerCode(const Shot& s, const std::string& name) {
 
 /// The tasks with a frame that is not done.
 std::vector<int> missingTasks(const Shot& s) {
+    const std::vector<char> done = framesDone(s);
     std::vector<int> tasks;
     for (int t = 0; t < s.tasks(); ++t)
         for (int f = s.taskFirst(t); f <= s.taskLast(t); ++f)
-            if (!frameDone(s, f)) {
+            if (!done[static_cast<std::size_t>(f - s.first)]) {
                 tasks.push_back(t);
                 break;
             }
@@ -314,13 +313,17 @@ int submit(const FarmOptions& o) {
 Shot loadShot(const std::string& dir) {
     Shot s;
     if (!readShot(dir, s)) throw InputError(dir, "", "no dgv farm shot here (no farm/shot.txt; see dgv farm submit)");
+    const SceneDesc scene = loadScene(s.scene);
+    s.width = scene.render.width;
+    s.height = scene.render.height;
+    s.key = sceneFrameKey(scene);
     return s;
 }
 
 int status(const FarmOptions& o) {
     const Shot s = loadShot(o.dir);
-    int done = 0;
-    for (int f = s.first; f <= s.last; ++f) done += frameDone(s, f);
+    const std::vector<char> complete = framesDone(s);
+    const int done = static_cast<int>(std::count(complete.begin(), complete.end(), 1));
     const int total = s.last - s.first + 1;
     std::printf("%s: frames %d-%d, %d of %d complete\n", s.name.c_str(), s.first, s.last, done, total);
     const int sim = markerCode(s, "simulate");
@@ -331,7 +334,7 @@ int status(const FarmOptions& o) {
     int failed = 0;
     for (int t = 0; t < s.tasks(); ++t) {
         int missing = 0;
-        for (int f = s.taskFirst(t); f <= s.taskLast(t); ++f) missing += !frameDone(s, f);
+        for (int f = s.taskFirst(t); f <= s.taskLast(t); ++f) missing += !complete[static_cast<std::size_t>(f - s.first)];
         const int rc = markerCode(s, "render." + std::to_string(t));
         const char* state = missing == 0 ? "done"
                             : rc > 0     ? "FAILED"

@@ -69,7 +69,7 @@ void checkOutputFolder(const std::string& dir, const std::string& input, const s
 }
 
 bool frameIsComplete(const std::string& path, int frame, int width, int height, const std::string& key,
-                     Image* image) {
+                     Image* image, bool anyRenderer) {
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) return false;
     std::vector<std::pair<std::string, std::string>> text;
@@ -83,7 +83,7 @@ bool frameIsComplete(const std::string& path, int frame, int width, int height, 
     bool frameMatches = false, keyMatches = false;
     for (const auto& [name, value] : text) {
         if (name == "dgv:frame") frameMatches = value == std::to_string(frame);
-        if (name == "dgv:key") keyMatches = value == key;
+        if (name == "dgv:key") keyMatches = anyRenderer ? value.rfind(key + " ", 0) == 0 : value == key;
     }
     if (!frameMatches || !keyMatches) return false;
     if (image) *image = std::move(decoded);

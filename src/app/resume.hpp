@@ -25,7 +25,10 @@ void checkOutputFolder(const std::string& dir, const std::string& input, const s
 /// a frame of an earlier version of the scene, or of another bit depth, is not kept). A file that
 /// exists but fails any of this is not trusted: the frame is rendered again. `image`, when
 /// given, receives the decoded frame (for the contact sheet).
+/// With `anyRenderer`, `key` is the scene's key alone (io/state_file.hpp, sceneFrameKey) and the
+/// frame may come from any GL renderer (its dgv:key is that key, a space and the renderer's name):
+/// what a farm task on whichever node wrote (dgv farm status).
 bool frameIsComplete(const std::string& path, int frame, int width, int height, const std::string& key,
-                     Image* image = nullptr);
+                     Image* image = nullptr, bool anyRenderer = false);
 
 }  // namespace dgv::app

@@ -150,6 +150,17 @@ TEST_CASE("farm: submit hands sbatch the dependency, status reads the folder, re
     REQUIRE(re.exitCode == 0);
     CHECK(re.out == "render 104 (tasks 1)\ncheck 105\n");
     CHECK_THAT(readAll(dir.path() / "sbatch.log"), Catch::Contains("--parsable --array=1 "));
+
+    // The scene edited after the frames were made (weaker gravity): none of them is of this
+    // version, so none counts, and resubmit covers every task (the frames were counted done
+    // when status only read the frame number).
+    std::string text = readAll(dir.path() / "shot.json");
+    text.replace(text.find("9.81"), 4, "4.00");
+    std::ofstream(dir.path() / "shot.json") << text;
+    const Run stale = runDgvIn(dir.path(), "farm status out");
+    CHECK_THAT(stale.out, Catch::Contains("0 of 6 complete"));
+    const Run again = runDgvIn(dir.path(), "farm resubmit out --dry-run", path);
+    CHECK_THAT(again.out, Catch::Contains("--array=0,1,2 "));
 }
 
 TEST_CASE("farm: a failed simulation shows in status as the reason the renders never ran", "[e2e][farm]") {
