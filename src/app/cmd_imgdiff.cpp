@@ -1,6 +1,7 @@
 // dgv imgdiff: the golden-image comparison as a command (render/image_compare.hpp).
 
 #include "app/commands.hpp"
+#include "app/resume.hpp"
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/png.hpp"
@@ -12,6 +13,8 @@
 namespace dgv::app {
 
 int runImgdiff(const ImgdiffOptions& options) {
+    // A --diff-out that cannot be a folder is bad input found first, not exit 1 (imgdiff's "differ").
+    checkOutputFolder(options.diffDir, "--diff-out", "");
     Image ref = readPng(options.reference);
     Image cand = readPng(options.candidate);
     ImageCompareSettings s;

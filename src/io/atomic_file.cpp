@@ -132,10 +132,6 @@ void removePendingTemporaries() noexcept {
 void ensureDirectory(const fs::path& dir) {
     if (dir.empty()) return;
     std::error_code ec;
-    // A symbolic link to a folder that does not exist: create_directories says only "File exists".
-    if (fs::is_symlink(fs::symlink_status(dir, ec)) && !fs::exists(dir, ec))
-        throw RuntimeError("cannot create folder " + dir.string() + ": it is a symbolic link to '" +
-                           fs::read_symlink(dir, ec).string() + "', which does not exist");
     fs::create_directories(dir, ec);
     if (ec) throw RuntimeError("cannot create folder " + dir.string() + ": " + ec.message());
     if (!fs::is_directory(dir, ec)) throw RuntimeError("cannot create folder " + dir.string() + ": not a folder");

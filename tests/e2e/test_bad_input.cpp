@@ -214,6 +214,10 @@ TEST_CASE("e2e: imgdiff on a missing or non-PNG file exits 2 with one line", "[e
     // A valid 1x1 PNG as the other side.
     const std::vector<unsigned char> encoded = encodePng(Image(1, 1));
     const std::string png(encoded.begin(), encoded.end());
+    Image light(1, 1);
+    for (int c = 0; c < 3; ++c) light.pixel(0, 0)[c] = 65535;
+    const std::vector<unsigned char> lightEncoded = encodePng(light);
+    const std::string white(lightEncoded.begin(), lightEncoded.end());
     checkCases("e2e_bad_imgdiff", {
         {"imgdiff: missing reference", {{"b.png", png}}, "imgdiff absent.png b.png", {"absent.png", "No such file"}},
         {"imgdiff: missing candidate", {{"a.png", png}}, "imgdiff a.png absent.png --diff-out d", {"absent.png"}},
@@ -221,6 +225,9 @@ TEST_CASE("e2e: imgdiff on a missing or non-PNG file exits 2 with one line", "[e
          {"text.png", "not a PNG file"}},
         {"imgdiff: truncated PNG", {{"a.png", png}, {"cut.png", png.substr(0, 40)}}, "imgdiff a.png cut.png --diff-out d",
          {"cut.png", "cannot read PNG"}},
+        // It exited 1, imgdiff's "the images differ", with "cannot create folder".
+        {"imgdiff: --diff-out is a file", {{"a.png", png}, {"w.png", white}, {"taken", ""}}, "imgdiff a.png w.png --diff-out taken",
+         {"--diff-out", "taken: not a folder"}},
     });
 }
 
