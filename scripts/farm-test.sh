@@ -26,7 +26,10 @@ stop() {
     wait "$p" 2>/dev/null || true
   done
   for _ in $(seq 50); do pgrep -x slurmstepd >/dev/null || break; sleep 0.1; done
-  if pgrep -f "$T/" >/dev/null || pgrep -x 'munged|slurmctld|slurmd|slurmstepd' >/dev/null; then
+  left=0
+  pgrep -f "$T/" >/dev/null && left=1
+  for d in munged slurmctld slurmd slurmstepd; do pgrep -x "$d" >/dev/null && left=1; done  # (one name each: pgrep warns on a pattern over 15 characters)
+  if (( left )); then
     echo "farm-test: FAIL: processes left behind:" >&2; pgrep -af "$T/|munged|slurmctld|slurmd|slurmstepd" >&2; rc=1
   fi
   if [[ $rc -ne 0 && -d $T ]]; then

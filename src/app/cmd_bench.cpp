@@ -20,16 +20,13 @@ int runBench(const BenchCommandOptions& options) {
         {"gln", bench::gln}, {"reconstruct", bench::reconstruct}, {"volume", bench::volume},
         {"vdb", bench::vdb}, {"step", bench::step}, {"reparametrise", bench::reparametrise},
         {"contact", bench::contact}};
-    const std::map<std::string, std::string> coming = {
-        {"step", "the dynamics"}};
+    std::string all;  // the names, for the error below
+    for (const auto& [name, fn] : built) all += (all.empty() ? "" : ", ") + name;
     std::vector<std::string> names = options.names;
     if (names.empty())
         for (const auto& [name, fn] : built) names.push_back(name);
-    for (const std::string& n : names) {
-        if (built.count(n)) continue;
-        if (coming.count(n)) throw InputError("bench", n, "not built yet (comes with " + coming.at(n) + ")");
-        throw InputError("bench", n, "unknown benchmark; choose from geometry, voxelise, render, gln, reconstruct, volume, vdb, step, reparametrise, contact");
-    }
+    for (const std::string& n : names)
+        if (!built.count(n)) throw InputError("bench", n, "unknown benchmark; choose from " + all);
     bench::BenchOptions bo;
     bo.repeats = options.repeats;
     bo.quick = options.quick;

@@ -2,7 +2,6 @@
 
 #include "base/errors.hpp"
 #include "geom/primitives.hpp"
-#include "geom/triangle_mesh.hpp"
 #include "io/mesh_import.hpp"
 
 #include <cstdio>
@@ -62,8 +61,7 @@ BuiltObject buildObject(const SceneDesc& scene, int index) {
     // A flat mesh (a single triangle, a plane) bounds no volume: voxelised as an open mesh it
     // becomes a sheet one voxel thick with no complete cell, whose dynamics went non-finite.
     {
-        const Box3 box = meshBounds(obj.restMesh);
-        const Vec3 size = box.size();
+        const Vec3 size = obj.meshReport.bounds.size();
         const Real largest = size.maxCoeff();
         for (int a = 0; a < 3; ++a)
             if (!(size[a] > 1e-9 * largest))

@@ -18,10 +18,6 @@
 namespace dgv {
 namespace {
 
-/// The longest scene or object name: it names output files (file names have 255 bytes at most).
-constexpr std::size_t kMaxNameLength = 200;
-
-
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
@@ -277,6 +273,16 @@ void readVoxel(ObjectReader& r, VoxeliseSettings& v) {
     }
 }
 
+/// A scene or object name names files such as .<name>.0001.png.tmp-<pid>: at most 200
+/// characters keeps every one under the 255 a file name may have (a longer one failed only after
+/// the setup, on the first frame's write).
+void limitNameLength(const ObjectReader& r, const std::string& name, const char* names) {
+    constexpr std::size_t kMaxNameLength = 200;
+    if (name.size() > kMaxNameLength)
+        r.fail("name", "use at most " + std::to_string(kMaxNameLength) + " characters (it names " + names + "), got " +
+                           std::to_string(name.size()));
+}
+
 }  // namespace
 
 SceneDesc parseScene(const std::string& text, const fs::path& path) {
@@ -308,12 +314,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     for (char c : s.name)
         if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'))
             r.fail("name", "use letters, digits, '_' and '-' only (it names output files), got \"" + s.name + "\"");
-    // It names files such as .<name>.0001.png.tmp-<pid>: at most 200 characters keeps every one
-    // under the 255 a file name may have (a longer one failed only after the setup, on the first
-    // frame's write).
-    if (s.name.size() > kMaxNameLength)
-        r.fail("name", "use at most " + std::to_string(kMaxNameLength) + " characters (it names output files), got " +
-                           std::to_string(s.name.size()));
+    limitNameLength(r, s.name, "output files");
 
     r.object("frames", [&](ObjectReader& f) {
         s.frameStart = f.integer("start", 1, 0, 999999);
@@ -338,9 +339,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     r.array("objects", [&](ObjectReader& o, int i) {
         ObjectDesc d;
         d.name = o.string("name", "object" + std::to_string(i));
-        if (d.name.size() > kMaxNameLength)
-            o.fail("name", "use at most " + std::to_string(kMaxNameLength) + " characters (it names mesh cache files), got " +
-                               std::to_string(d.name.size()));
+        limitNameLength(o, d.name, "mesh cache files");
         bool hasMesh = o.has("mesh"), hasPrim = o.has("primitive");
         if (hasMesh == hasPrim) o.fail("", "give exactly one of 'mesh' (a file) or 'primitive'");
         if (hasMesh) {
