@@ -144,14 +144,13 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
                            GlnKernel kernel, int maxRounds) {
     DGV_CHECK(theta > 0 && theta < 1);
     DGV_CHECK(budget > 0);
-    struct Far {
-        NodePair pair;
-        Real theta;  // the opening ratio the pair was accepted at
-        FarValue v;
-    };
-    struct Task {
+    struct Task {  // a node pair to traverse, and the opening ratio to traverse it at
         NodePair pair;
         Real theta;
+    };
+    struct Far {  // a far pair, the ratio it was accepted at, and its multipole
+        Task at;
+        FarValue v;
     };
     std::vector<Far> far;
     std::vector<NodePair> near;
@@ -169,7 +168,7 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
             for (Index t = k * n / blocks; t < (k + 1) * n / blocks; ++t) {
                 const Task& task = tasks[static_cast<std::size_t>(t)];
                 traverse(ta, tb, task.pair, task.theta, [&](NodePair p) {
-                    f.push_back({p, task.theta,
+                    f.push_back({{p, task.theta},
                                  farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)], tb.nodes[static_cast<std::size_t>(p.b)])});
                 }, e);
             }
@@ -224,7 +223,7 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
             out.farValue = fv.value;
             out.farBound = fv.bound;
             out.smallestTheta = 1;
-            for (const Far& f : far) out.smallestTheta = std::min(out.smallestTheta, f.theta);
+            for (const Far& f : far) out.smallestTheta = std::min(out.smallestTheta, f.at.theta);
             out.nearEvaluated = true;
             if (done(out)) return out;
             target = 0.5 * std::min(target, bound);
@@ -235,7 +234,7 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
         kept.reserve(far.size());
         std::vector<Task> opened;
         for (const Far& f : far) {
-            if (f.v.bound > share) opened.push_back({f.pair, Real(0.5) * f.theta});
+            if (f.v.bound > share) opened.push_back({f.at.pair, Real(0.5) * f.at.theta});
             else kept.push_back(f);
         }
         far = std::move(kept);
