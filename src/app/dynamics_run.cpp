@@ -229,9 +229,9 @@ int DynamicsRun::restoreCheckpoint(int frame) {
             for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && why.empty(); ++f)
                 for (const BuiltObject& o : mObjects) {
                     const fs::path file = meshCachePath(fs::path(mScene.output.dir) / "mesh", o.name, f, mMesh);
-                    const std::string problem = meshCacheFileProblem(file, mMesh, f, mFrameKey);
-                    if (!problem.empty()) {
-                        why = file.string() + " " + problem;
+                    const std::string fileProblem = meshCacheFileProblem(file, mMesh, f, mFrameKey);
+                    if (!fileProblem.empty()) {
+                        why = file.string() + " " + fileProblem;
                         break;
                     }
                 }

@@ -3,4 +3,5 @@ list(APPEND DGV_DEFORM_SOURCES
   deform/connection_delta.cpp
   deform/sl3.cpp
   deform/volume.cpp
+  deform/resample.cpp
 )

@@ -337,14 +337,14 @@ Reparametrisation reparametrise(const DeformableBody& body) {
             return;
         }
         Vec3 total = Vec3::Zero();
-        int count = 0;
+        int samples = 0;
         for (int c = 0; c < 8; ++c) {
             const Vec3i w = u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1);
             if ((w.array() < 0).any() || (w.array() >= cellDims.array()).any()) continue;
             total += velocitySum[cellIndex(w)];
-            count += inside[cellIndex(w)];
+            samples += inside[cellIndex(w)];
         }
-        vNew[at(p)] = count > 0 ? Vec3(total / count) : Vec3::Zero();
+        vNew[at(p)] = samples > 0 ? Vec3(total / samples) : Vec3::Zero();
     });
     // The same momentum as the old points carry over the last step.
     const std::vector<Real>& mOld = body.masses();

@@ -18,6 +18,7 @@
 /// thread count.
 
 #include "base/types.hpp"
+#include "deform/resample.hpp"
 #include "deform/volume.hpp"
 #include "geom/lattice.hpp"
 #include "geom/triangle_mesh.hpp"
@@ -52,19 +53,14 @@ struct VdbFrameInfo {
     std::string key;           ///< the scene's frame key (io/state_file.hpp, sceneFrameKey), as dgv_key
 };
 
-/// Which vector kernel inverts the cell maps: the widest the CPU runs (Auto: AVX-512, else AVX2,
-/// else SSE2), or a narrower one (a kernel the CPU lacks falls back to the next narrower). All
-/// give the same bits (tested); the choice only exists to test that.
-enum class VdbKernel { Auto, Avx512, Avx2, Sse2 };
 /// Who serialises the grids: dgv's streamed writer (the leaf buffers compressed once, on every
 /// core, by OpenVDB's own leaf code, while a thread writes the grids already done) or
 /// openvdb::io::Archive::write. Both write the same bytes
 /// but for the file's random UUID (tested); the choice only exists to test that.
 enum class VdbWriter { Parallel, OpenVdb };
-/// How the (leaf block, cell) pairs are grouped by block: by counting where the blocks' bounding
-/// box is at most 2^23 blocks (Auto), else by sorting (Sort, always). Both give the same bits
-/// (tested); the choice only exists to test that.
-enum class VdbBinning { Auto, Sort };
+/// The resampler's vector kernel and binning (deform/resample.hpp): the same bits whichever.
+using VdbKernel = ResampleKernel;
+using VdbBinning = ResampleBinning;
 
 struct VdbWriteSettings {
     Real worldVoxelSize = 0;     ///< world-grid voxel size; 0 = the smallest lattice spacing

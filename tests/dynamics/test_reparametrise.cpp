@@ -121,12 +121,12 @@ TEST_CASE("reparametrise: a wound-up goo ball goes onto a fresh lattice with its
     constexpr int kAfter = 64;
     for (int k = 0; k < kAfter; ++k) {
         if (k % 4 == 0 && bound.exceeded(latticeDistortion(*now))) {
-            Reparametrisation again = reparametrise(*now);
-            INFO("step " << k << ": " << again.refused);
-            REQUIRE(again.refused.empty());
-            auto l = std::make_unique<Lattice>(std::move(again.lattice));
+            Reparametrisation remap = reparametrise(*now);
+            INFO("step " << k << ": " << remap.refused);
+            REQUIRE(remap.refused.empty());
+            auto l = std::make_unique<Lattice>(std::move(remap.lattice));
             auto b = std::make_unique<DeformableBody>(*l, restPositions(*l), set);
-            b->restoreState(std::move(again.state));
+            b->restoreState(std::move(remap.state));
             now = std::move(b);
             lattice = std::move(l);
             ++remaps;
