@@ -13,9 +13,9 @@ Real radians(Real degrees) { return degrees * kPi / 180.0; }
 }  // namespace
 
 Mat4 Camera::viewFromWorld() const {
-    const Vec3 f = (target - eye).normalized();        // forward, camera -Z
-    const Vec3 s = f.cross(up).normalized();           // right, camera +X
-    const Vec3 u = s.cross(f);                         // true up, camera +Y
+    const Vec3 f = (target - eye).normalized();  // forward, camera -Z
+    const Vec3 s = f.cross(up).normalized();     // right, camera +X
+    const Vec3 u = s.cross(f);                   // true up, camera +Y
     Mat4 m = Mat4::Identity();
     m.block<1, 3>(0, 0) = s.transpose();
     m.block<1, 3>(1, 0) = u.transpose();
@@ -37,8 +37,8 @@ Mat4 Camera::clipFromView(Real aspect, Real nearZ, Real farZ) const {
     return m;
 }
 
-Camera turntableCamera(const Box3& bounds, Real angleDegrees, Real elevationDegrees, Real fovYDegrees,
-                       Real aspect, Real margin) {
+Camera turntableCamera(const Box3& bounds, Real angleDegrees, Real elevationDegrees, Real fovYDegrees, Real aspect,
+                       Real margin) {
     Vec3 centre = Vec3::Zero();
     Real radius = 1.0;
     if (!bounds.empty()) {

@@ -10,9 +10,9 @@ struct Camera {
     Vec3 eye = Vec3(0, 1, 5);
     Vec3 target = Vec3::Zero();
     Vec3 up = Vec3::UnitY();
-    Real fovYDegrees = 35;   ///< vertical field of view
-    Real nearClip = 0;       ///< 0: chosen from the scene bounds
-    Real farClip = 0;        ///< 0: chosen from the scene bounds
+    Real fovYDegrees = 35;  ///< vertical field of view
+    Real nearClip = 0;      ///< 0: chosen from the scene bounds
+    Real farClip = 0;       ///< 0: chosen from the scene bounds
 
     /// World -> camera (view) matrix, looking down -Z in camera space.
     Mat4 viewFromWorld() const;
@@ -23,7 +23,7 @@ struct Camera {
 /// A camera orbiting `bounds` about the vertical axis through its centre: `angleDegrees` around
 /// Y (0 looks from +Z), `elevationDegrees` above the horizon, at a distance that fits the whole
 /// bounding sphere in the view with `margin` (1.1 = 10% room) for the given aspect.
-Camera turntableCamera(const Box3& bounds, Real angleDegrees, Real elevationDegrees, Real fovYDegrees,
-                       Real aspect, Real margin = 1.1);
+Camera turntableCamera(const Box3& bounds, Real angleDegrees, Real elevationDegrees, Real fovYDegrees, Real aspect,
+                       Real margin = 1.1);
 
 }  // namespace dgv

@@ -80,8 +80,9 @@ void GlContext::createOsMesa() {
                            0};
     OSMesaContext ctx = OSMesaCreateContextAttribs(attribs, nullptr);
     if (!ctx) {
-        throw RuntimeError("OSMesa: cannot create an OpenGL 3.3 core-profile context "
-                           "(is libOSMesa from Mesa >= 20 with llvmpipe installed?)");
+        throw RuntimeError(
+            "OSMesa: cannot create an OpenGL 3.3 core-profile context "
+            "(is libOSMesa from Mesa >= 20 with llvmpipe installed?)");
     }
     mContext = ctx;
     makeCurrent();
@@ -94,7 +95,8 @@ void GlContext::createEgl() {
         reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(eglGetProcAddress("eglQueryDeviceStringEXT"));
     auto getPlatformDisplay =
         reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
-    if (!getPlatformDisplay) throw RuntimeError("EGL: eglGetPlatformDisplayEXT is missing (is libegl-mesa0 installed?)");
+    if (!getPlatformDisplay)
+        throw RuntimeError("EGL: eglGetPlatformDisplayEXT is missing (is libegl-mesa0 installed?)");
     EGLDisplay dpy = EGL_NO_DISPLAY;
     // Mesa's software device (llvmpipe) by name, so a GPU is never picked: the same pixels as
     // OSMesa. Else the surfaceless platform.
@@ -117,8 +119,9 @@ void GlContext::createEgl() {
         destroy();
         throw RuntimeError("EGL: eglBindAPI(EGL_OPENGL_API) failed");
     }
-    const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 3,
-                              EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+    const EGLint attribs[] = {
+        EGL_CONTEXT_MAJOR_VERSION,           3,       EGL_CONTEXT_MINOR_VERSION, 3, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+        EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
     // No config (EGL_KHR_no_config_context): nothing is drawn to an EGL surface.
     EGLContext ctx = eglCreateContext(dpy, EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, attribs);
     if (ctx == EGL_NO_CONTEXT) {
@@ -146,8 +149,8 @@ GlContext::~GlContext() { destroy(); }
 
 void GlContext::makeCurrent() {
     if (mBackend == GlBackend::OsMesa) {
-        if (!OSMesaMakeCurrent(static_cast<OSMesaContext>(mContext), mScratch.data(), GL_UNSIGNED_BYTE,
-                               kScratchSize, kScratchSize)) {
+        if (!OSMesaMakeCurrent(static_cast<OSMesaContext>(mContext), mScratch.data(), GL_UNSIGNED_BYTE, kScratchSize,
+                               kScratchSize)) {
             throw RuntimeError("OSMesa: OSMesaMakeCurrent failed");
         }
     } else if (!eglMakeCurrent(static_cast<EGLDisplay>(mDisplay), EGL_NO_SURFACE, EGL_NO_SURFACE,
@@ -162,9 +165,12 @@ namespace dgv {
 
 std::string glBackendName(GlBackend b) {
     switch (b) {
-        case GlBackend::Auto: return "auto";
-        case GlBackend::Egl: return "egl";
-        case GlBackend::OsMesa: return "osmesa";
+        case GlBackend::Auto:
+            return "auto";
+        case GlBackend::Egl:
+            return "egl";
+        case GlBackend::OsMesa:
+            return "osmesa";
     }
     return "?";
 }

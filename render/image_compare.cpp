@@ -28,8 +28,7 @@ std::string ImageCompareResult::summary() const {
     return buf;
 }
 
-ImageCompareResult compareImages(const Image& reference, const Image& candidate,
-                                 const ImageCompareSettings& settings) {
+ImageCompareResult compareImages(const Image& reference, const Image& candidate, const ImageCompareSettings& settings) {
     ImageCompareResult r;
     if (reference.width != candidate.width || reference.height != candidate.height ||
         reference.rgba.size() != candidate.rgba.size() ||

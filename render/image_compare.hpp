@@ -11,17 +11,17 @@
 namespace dgv {
 
 struct ImageCompareSettings {
-    double threshold = 4.0;     ///< per-pixel tolerance, 8-bit code values
-    double maxFraction = 0.005; ///< fraction of pixels allowed over the threshold
-    double hard = -1;           ///< any pixel above this fails; < 0: off
+    double threshold = 4.0;      ///< per-pixel tolerance, 8-bit code values
+    double maxFraction = 0.005;  ///< fraction of pixels allowed over the threshold
+    double hard = -1;            ///< any pixel above this fails; < 0: off
 };
 
 struct ImageCompareResult {
     bool sizeMismatch = false;
     bool pass = false;
-    long differing = 0;         ///< pixels over the threshold
+    long differing = 0;  ///< pixels over the threshold
     double fraction = 0;
-    double meanError = 0;       ///< mean of the per-pixel max channel error
+    double meanError = 0;  ///< mean of the per-pixel max channel error
     double maxError = 0;
     int maxX = 0, maxY = 0, maxChannel = 0;
     int boxMinX = 0, boxMinY = 0, boxMaxX = -1, boxMaxY = -1;  ///< bounds of differing pixels

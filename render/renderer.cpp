@@ -35,9 +35,12 @@ constexpr int kMaxTextureSize = 16384;
 float halfToFloat(std::uint16_t h) {
     const int sign = h >> 15, exponent = (h >> 10) & 0x1f, mantissa = h & 0x3ff;
     float v;
-    if (exponent == 0) v = std::ldexp(static_cast<float>(mantissa), -24);
-    else if (exponent == 31) v = mantissa ? std::numeric_limits<float>::quiet_NaN() : std::numeric_limits<float>::infinity();
-    else v = std::ldexp(static_cast<float>(mantissa | 0x400), exponent - 25);
+    if (exponent == 0)
+        v = std::ldexp(static_cast<float>(mantissa), -24);
+    else if (exponent == 31)
+        v = mantissa ? std::numeric_limits<float>::quiet_NaN() : std::numeric_limits<float>::infinity();
+    else
+        v = std::ldexp(static_cast<float>(mantissa | 0x400), exponent - 25);
     return sign ? -v : v;
 }
 
@@ -70,8 +73,7 @@ void setMat4(const ShaderProgram& p, const char* name, const Mat4& m) {
     glUniformMatrix4fv(p.uniform(name), 1, GL_FALSE, f.v);
 }
 void setVec3(const ShaderProgram& p, const char* name, const Vec3& v) {
-    glUniform3f(p.uniform(name), static_cast<float>(v.x()), static_cast<float>(v.y()),
-                static_cast<float>(v.z()));
+    glUniform3f(p.uniform(name), static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
 }
 void setFloat(const ShaderProgram& p, const char* name, double v) {
     glUniform1f(p.uniform(name), static_cast<float>(v));
@@ -102,14 +104,14 @@ struct MeshSlot {
     std::vector<std::array<int, 3>> triangles;
     std::size_t vertexCount = 0;
     double creaseDegrees = -1;
-    bool closed = false;                        // every edge shared by exactly 2 opposite triangles
-    bool inverted = false;                      // closed but CW from outside (negative volume)
-    std::vector<int> sourceVertex;              // render vertex -> mesh vertex
+    bool closed = false;            // every edge shared by exactly 2 opposite triangles
+    bool inverted = false;          // closed but CW from outside (negative volume)
+    std::vector<int> sourceVertex;  // render vertex -> mesh vertex
     std::vector<std::array<int, 3>> renderTriangles;
-    std::vector<int> adjacencyStart;            // render vertex -> range in `adjacency`
-    std::vector<int> adjacency;                 // triangles of the render vertex's group
-    std::vector<float> interleaved;             // position xyz, normal xyz, scalar per render vertex
-    std::vector<Vec3f> faceNormals;             // area-weighted (cross product of two edges)
+    std::vector<int> adjacencyStart;  // render vertex -> range in `adjacency`
+    std::vector<int> adjacency;       // triangles of the render vertex's group
+    std::vector<float> interleaved;   // position xyz, normal xyz, scalar per render vertex
+    std::vector<Vec3f> faceNormals;   // area-weighted (cross product of two edges)
 };
 
 /// True when every directed edge (a, b) of the triangles is matched by exactly one (b, a) and
@@ -133,8 +135,7 @@ bool isClosedOriented(const std::vector<std::array<int, 3>>& triangles) {
 /// the area-weighted sum over the group. Groups are numbered by their first triangle in the
 /// vertex's (ascending) triangle list, render vertices by (mesh vertex, group): deterministic.
 /// `faceNormals` are the unnormalised normals of the positions the split is decided on.
-void buildRenderTopology(MeshSlot& slot, std::size_t nv, const std::vector<Vec3f>& faceNormals,
-                         double creaseDegrees) {
+void buildRenderTopology(MeshSlot& slot, std::size_t nv, const std::vector<Vec3f>& faceNormals, double creaseDegrees) {
     const auto& tris = slot.triangles;
     const std::size_t nt = tris.size();
     // mesh vertex -> incident triangles, ascending
@@ -233,8 +234,7 @@ void buildRenderTopology(MeshSlot& slot, std::size_t nv, const std::vector<Vec3f
 std::vector<std::string> RenderSettings::validate() const {
     std::vector<std::string> problems;
     if (width < 1 || width > kMaxTextureSize)
-        problems.push_back("width: expected 1.." + std::to_string(kMaxTextureSize) + ", got " +
-                           std::to_string(width));
+        problems.push_back("width: expected 1.." + std::to_string(kMaxTextureSize) + ", got " + std::to_string(width));
     if (height < 1 || height > kMaxTextureSize)
         problems.push_back("height: expected 1.." + std::to_string(kMaxTextureSize) + ", got " +
                            std::to_string(height));
@@ -272,8 +272,9 @@ std::string findShaderDir() {
 #ifdef DGV_SHADER_DIR
     if (hasShaders(DGV_SHADER_DIR)) return DGV_SHADER_DIR;
 #endif
-    throw RuntimeError("cannot find dgv's shaders (mesh.vert, ...): set DGV_SHADER_DIR, or install "
-                       "them in <dgv dir>/shaders or <dgv dir>/../share/dgv/shaders");
+    throw RuntimeError(
+        "cannot find dgv's shaders (mesh.vert, ...): set DGV_SHADER_DIR, or install "
+        "them in <dgv dir>/shaders or <dgv dir>/../share/dgv/shaders");
 }
 
 struct Renderer::Impl {
@@ -325,11 +326,11 @@ struct Renderer::Impl {
         // Supersampled: the mesh pass shares its PCF taps across each 2x2 fragment quad
         // (lighting.glsl, DGV_QUAD_PCF; fine derivatives, core in GL 4.5). At 1x a quad spans
         // 2x2 output pixels, which would show as blocks in the penumbra: four taps each there.
-        const bool quadPcf =
-            s.sharedShadowTaps && s.supersample >= 2 && hasGlExtension("GL_ARB_derivative_control");
+        const bool quadPcf = s.sharedShadowTaps && s.supersample >= 2 && hasGlExtension("GL_ARB_derivative_control");
         const std::string pcf = quadPcf ? "#define DGV_QUAD_PCF 1\n" : "";
         meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf);
-        meshPlainProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf + "#define DGV_SCALAR 0\n");
+        meshPlainProgram =
+            ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf + "#define DGV_SCALAR 0\n");
         groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl");
         groundPlainProgram =
             ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", "#define DGV_SHADOWS 0\n");
@@ -386,8 +387,8 @@ struct Renderer::Impl {
         // Shadow map: depth texture with hardware comparison (bilinear PCF per tap).
         glGenTextures(1, &shadowDepth);
         glBindTexture(GL_TEXTURE_2D, shadowDepth);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, kShadowMapSize, kShadowMapSize, 0,
-                     GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, kShadowMapSize, kShadowMapSize, 0, GL_DEPTH_COMPONENT,
+                     GL_UNSIGNED_INT, nullptr);
         // Linear: resolve.frag sums the box from bilinear samples at 2x2 block centres.
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -427,12 +428,11 @@ struct Renderer::Impl {
     static void checkFramebuffer(const char* what) {
         const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
         if (status != GL_FRAMEBUFFER_COMPLETE) {
-            throw RuntimeError(std::string("OpenGL: the ") + what + " framebuffer is incomplete (status 0x" +
-                               [&] {
-                                   char buf[16];
-                                   std::snprintf(buf, sizeof buf, "%x", status);
-                                   return std::string(buf);
-                               }() + ")");
+            throw RuntimeError(std::string("OpenGL: the ") + what + " framebuffer is incomplete (status 0x" + [&] {
+                char buf[16];
+                std::snprintf(buf, sizeof buf, "%x", status);
+                return std::string(buf);
+            }() + ")");
         }
     }
 
@@ -530,22 +530,26 @@ struct Renderer::Impl {
         for (const auto& t : mesh.triangles) {
             for (int k = 0; k < 3; ++k) {
                 if (t[k] < 0 || static_cast<std::size_t>(t[k]) >= nv)
-                    throw InputError("", "render", "a triangle refers to vertex " + std::to_string(t[k]) +
-                                                       " of a mesh with " + std::to_string(nv));
+                    throw InputError("", "render",
+                                     "a triangle refers to vertex " + std::to_string(t[k]) + " of a mesh with " +
+                                         std::to_string(nv));
             }
         }
         if (!mesh.scalar.empty() && mesh.scalar.size() != nv)
-            throw InputError("", "render", "the per-vertex scalar has " + std::to_string(mesh.scalar.size()) +
-                                               " values for a mesh with " + std::to_string(nv) + " vertices");
+            throw InputError("", "render",
+                             "the per-vertex scalar has " + std::to_string(mesh.scalar.size()) +
+                                 " values for a mesh with " + std::to_string(nv) + " vertices");
         slot.faceNormals.resize(nt);
         parallelFor(static_cast<Index>(nt), [&](Index f) {
             const auto& t = mesh.triangles[static_cast<std::size_t>(f)];
-            const Vec3 e1 = mesh.positions[static_cast<std::size_t>(t[1])] - mesh.positions[static_cast<std::size_t>(t[0])];
-            const Vec3 e2 = mesh.positions[static_cast<std::size_t>(t[2])] - mesh.positions[static_cast<std::size_t>(t[0])];
+            const Vec3 e1 =
+                mesh.positions[static_cast<std::size_t>(t[1])] - mesh.positions[static_cast<std::size_t>(t[0])];
+            const Vec3 e2 =
+                mesh.positions[static_cast<std::size_t>(t[2])] - mesh.positions[static_cast<std::size_t>(t[0])];
             slot.faceNormals[static_cast<std::size_t>(f)] = e1.cross(e2).cast<float>();
         });
-        const bool topologyChanged = slot.vertexCount != nv || slot.triangles != mesh.triangles ||
-                                     slot.creaseDegrees != settings.creaseDegrees;
+        const bool topologyChanged =
+            slot.vertexCount != nv || slot.triangles != mesh.triangles || slot.creaseDegrees != settings.creaseDegrees;
         if (topologyChanged) {
             // The split is decided on the positions of this frame and kept while the triangles
             // stay the same, so a deforming mesh keeps its vertex count and index buffer.
@@ -570,7 +574,8 @@ struct Renderer::Impl {
             double volume = 0;
             for (const auto& t : mesh.triangles)
                 volume += mesh.positions[static_cast<std::size_t>(t[0])].dot(
-                    mesh.positions[static_cast<std::size_t>(t[1])].cross(mesh.positions[static_cast<std::size_t>(t[2])]));
+                    mesh.positions[static_cast<std::size_t>(t[1])].cross(
+                        mesh.positions[static_cast<std::size_t>(t[2])]));
             slot.inverted = slot.closed && volume < 0;
         }
         const std::size_t nr = slot.sourceVertex.size();
@@ -582,8 +587,10 @@ struct Renderer::Impl {
             for (int a = slot.adjacencyStart[r]; a < slot.adjacencyStart[r + 1]; ++a)
                 n += slot.faceNormals[static_cast<std::size_t>(slot.adjacency[static_cast<std::size_t>(a)])];
             const float len = n.norm();
-            if (len > 0 && std::isfinite(len)) n /= len;
-            else n = Vec3f(0, 1, 0);
+            if (len > 0 && std::isfinite(len))
+                n /= len;
+            else
+                n = Vec3f(0, 1, 0);
             float* out = slot.interleaved.data() + r * kStride;
             out[0] = static_cast<float>(mesh.positions[v].x());
             out[1] = static_cast<float>(mesh.positions[v].y());
@@ -631,9 +638,9 @@ struct Renderer::Impl {
         auto clip = [&](const Vec3& p) -> Vec4 { return clipFromWorld * p.homogeneous(); };
         auto emit = [&](const Vec4& c, double ox, double oy, float u, float v) {
             // (ox, oy): offset in output pixels, turned into clip units at this vertex's w.
-            overlayData.insert(overlayData.end(),
-                               {static_cast<float>(c.x() + ox / sx * c.w()), static_cast<float>(c.y() + oy / sy * c.w()),
-                                static_cast<float>(c.z()), static_cast<float>(c.w()), u, v});
+            overlayData.insert(overlayData.end(), {static_cast<float>(c.x() + ox / sx * c.w()),
+                                                   static_cast<float>(c.y() + oy / sy * c.w()),
+                                                   static_cast<float>(c.z()), static_cast<float>(c.w()), u, v});
         };
         auto quad = [&](const Vec4& a, const Vec4& b, double px, double py, double dx, double dy) {
             // a - perp - dir, a + perp - dir, b + perp + dir, b - perp + dir
@@ -658,8 +665,10 @@ struct Renderer::Impl {
                 if (!(a.w() > kMinW && b.w() > kMinW)) continue;
                 double ex = (b.x() / b.w() - a.x() / a.w()) * sx, ey = (b.y() / b.w() - a.y() / a.w()) * sy;
                 const double len = std::hypot(ex, ey);
-                if (len > 1e-12) ex /= len, ey /= len;
-                else ex = 1, ey = 0;
+                if (len > 1e-12)
+                    ex /= len, ey /= len;
+                else
+                    ex = 1, ey = 0;
                 quad(a, b, -ey * half, ex * half, ex * half, ey * half);
             }
             d.count = static_cast<GLsizei>(overlayData.size() / 6) - d.first;
@@ -732,7 +741,8 @@ struct Renderer::Impl {
         const int nz = std::clamp(static_cast<int>(std::ceil((z1 - z0) / texel)), 2, kMaxSide);
         const Real dx = (x1 - x0) / nx, dz = (z1 - z0) / nz;
         // Per texel: Π(1 − a), Σ a·colour, Σ a.
-        std::vector<double> clear(static_cast<std::size_t>(nx) * nz, 1.0), sum(static_cast<std::size_t>(nx) * nz * 4, 0.0);
+        std::vector<double> clear(static_cast<std::size_t>(nx) * nz, 1.0),
+            sum(static_cast<std::size_t>(nx) * nz * 4, 0.0);
         for (const GroundMark& m : marks) {
             const Real a0 = std::clamp(m.strength, Real(0), Real(1));
             const int i0 = std::max(0, static_cast<int>(std::floor((m.x - m.radius - x0) / dx)));
@@ -755,7 +765,8 @@ struct Renderer::Impl {
             if (!(sum[4 * k + 3] > 0)) continue;
             const double alpha = 1 - clear[k];
             for (int c = 0; c < 3; ++c)
-                decalTexels[4 * k + c] = static_cast<float>(std::clamp(sum[4 * k + c] / sum[4 * k + 3], 0.0, 1.0) * alpha);
+                decalTexels[4 * k + c] =
+                    static_cast<float>(std::clamp(sum[4 * k + c] / sum[4 * k + 3], 0.0, 1.0) * alpha);
             decalTexels[4 * k + 3] = static_cast<float>(alpha);
         }
         if (!decalTexture) {
@@ -906,8 +917,10 @@ struct Renderer::Impl {
             // the triangles to set up, and lit surfaces never compare against themselves.
             for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
                 if (meshes[i].indexCount == 0) continue;
-                if (meshes[i].closed) glEnable(GL_CULL_FACE);
-                else glDisable(GL_CULL_FACE);
+                if (meshes[i].closed)
+                    glEnable(GL_CULL_FACE);
+                else
+                    glDisable(GL_CULL_FACE);
                 glCullFace(meshes[i].inverted ? GL_BACK : GL_FRONT);
                 glBindVertexArray(meshes[i].vao);
                 glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
@@ -961,8 +974,10 @@ struct Renderer::Impl {
                 const Real span = m.ramp.max - m.ramp.min;
                 setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
             }
-            if (meshes[i].closed) glEnable(GL_CULL_FACE);
-            else glDisable(GL_CULL_FACE);
+            if (meshes[i].closed)
+                glEnable(GL_CULL_FACE);
+            else
+                glDisable(GL_CULL_FACE);
             glCullFace(meshes[i].inverted ? GL_FRONT : GL_BACK);
             glBindVertexArray(meshes[i].vao);
             glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
@@ -976,8 +991,7 @@ struct Renderer::Impl {
         // under the supersampled meshes in the resolve: a quarter of the fragments at 2x2.
         // Otherwise (eye below the plane, or a mesh reaching below a given ground height) it is
         // drawn here, depth-tested, at n x n.
-        const bool groundAtOutput =
-            drawGround && camera.eye.y() > groundY && bounds.min.y() >= groundY - 1e-3 * radius;
+        const bool groundAtOutput = drawGround && camera.eye.y() > groundY && bounds.min.y() >= groundY - 1e-3 * radius;
         const bool haveDecal = drawGround && !scene.groundMarks.empty() && !settings.transparentBackground;
         std::array<Real, 4> decalRect{0, 0, 1, 1};
         if (haveDecal) {
@@ -1046,8 +1060,10 @@ struct Renderer::Impl {
             glEnable(GL_POLYGON_OFFSET_FILL);
             glPolygonOffset(-1.0f, -4.0f);
             for (const OverlayDraw& d : overlayDraws) {
-                if (d.onTop) glDisable(GL_DEPTH_TEST);
-                else glEnable(GL_DEPTH_TEST);
+                if (d.onTop)
+                    glDisable(GL_DEPTH_TEST);
+                else
+                    glEnable(GL_DEPTH_TEST);
                 setVec3(overlayProgram, "uColour", d.colour.cwiseMax(0.0).cwiseMin(1.0));
                 setInt(overlayProgram, "uRound", d.round ? 1 : 0);
                 glDrawArrays(GL_TRIANGLES, d.first, d.count);
@@ -1112,21 +1128,24 @@ struct Renderer::Impl {
         }
         Image image(w, h);
         const std::size_t rowSamples = static_cast<std::size_t>(w) * 4;
-        parallelFor(static_cast<Index>(h), [&](Index yi) {
-            const std::size_t y = static_cast<std::size_t>(yi);
-            const std::uint16_t* src = readback.data() + rowSamples * (static_cast<std::size_t>(h) - 1 - y);
-            std::uint16_t* dst = image.rgba.data() + rowSamples * y;
-            for (std::size_t i = 0; i < rowSamples; i += 4) {
-                if (src[i + 3] & 0x8000) {  // negative alpha: nothing drawn here
-                    std::memcpy(dst + i, background, sizeof background);
-                    continue;
+        parallelFor(
+            static_cast<Index>(h),
+            [&](Index yi) {
+                const std::size_t y = static_cast<std::size_t>(yi);
+                const std::uint16_t* src = readback.data() + rowSamples * (static_cast<std::size_t>(h) - 1 - y);
+                std::uint16_t* dst = image.rgba.data() + rowSamples * y;
+                for (std::size_t i = 0; i < rowSamples; i += 4) {
+                    if (src[i + 3] & 0x8000) {  // negative alpha: nothing drawn here
+                        std::memcpy(dst + i, background, sizeof background);
+                        continue;
+                    }
+                    dst[i] = srgbOfHalf[src[i]];
+                    dst[i + 1] = srgbOfHalf[src[i + 1]];
+                    dst[i + 2] = srgbOfHalf[src[i + 2]];
+                    dst[i + 3] = unormOfHalf[src[i + 3]];
                 }
-                dst[i] = srgbOfHalf[src[i]];
-                dst[i + 1] = srgbOfHalf[src[i + 1]];
-                dst[i + 2] = srgbOfHalf[src[i + 2]];
-                dst[i + 3] = unormOfHalf[src[i + 3]];
-            }
-        }, 16);
+            },
+            16);
         timings.readbackMs = msSince(t0);
         return image;
     }

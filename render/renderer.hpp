@@ -21,8 +21,8 @@ namespace dgv {
 /// mix(low, high, clamp((s - min) / (max - min), 0, 1)); where s <= 0 it stays the mesh colour,
 /// so 0 means "not highlighted".
 struct ScalarRamp {
-    Vec3 low = Vec3(1.0, 0.85, 0.1);   ///< linear RGB at s = min
-    Vec3 high = Vec3(0.9, 0.05, 0.02); ///< linear RGB at s >= max
+    Vec3 low = Vec3(1.0, 0.85, 0.1);    ///< linear RGB at s = min
+    Vec3 high = Vec3(0.9, 0.05, 0.02);  ///< linear RGB at s >= max
     Real min = 0, max = 1;
     /// Where s > 0, `high` times this (0..1) times the ramp's position t = clamp((s − min)/(max −
     /// min)) is also emitted: unlit and unshadowed, so a highlight on a surface turned from the
@@ -47,19 +47,19 @@ struct DrawMesh {
 /// A polyline overlay (curves, GLN network loops, ...): flat, unlit, `width` output pixels
 /// wide (screen-space quads per segment, so any width works on any GL). Casts no shadow.
 struct Polyline {
-    std::vector<Vec3> points;   ///< world space
-    bool closed = true;         ///< also joins the last point to the first
+    std::vector<Vec3> points;           ///< world space
+    bool closed = true;                 ///< also joins the last point to the first
     Vec3 colour = Vec3(1.0, 0.9, 0.1);  ///< linear RGB
-    Real width = 2;             ///< output pixels (> 0)
-    bool onTop = false;         ///< drawn over everything (no depth test); else depth-tested
+    Real width = 2;                     ///< output pixels (> 0)
+    bool onTop = false;                 ///< drawn over everything (no depth test); else depth-tested
 };
 
 /// Dots (e.g. the lattice points): round, flat, `size` output pixels across. Casts no shadow.
 struct PointSet {
-    std::vector<Vec3> points;   ///< world space
+    std::vector<Vec3> points;             ///< world space
     Vec3 colour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB
-    Real size = 3;              ///< diameter, output pixels (> 0)
-    bool onTop = true;          ///< drawn over everything (points inside a volume show through)
+    Real size = 3;                        ///< diameter, output pixels (> 0)
+    bool onTop = true;                    ///< drawn over everything (points inside a volume show through)
 };
 
 /// A mark on the ground plane (a contact footprint, render.contact.footprint): a disc at
@@ -103,11 +103,11 @@ std::string glBackendName(GlBackend backend);
 struct RenderSettings {
     int width = 640;
     int height = 360;
-    int supersample = 2;                  ///< n x n samples per pixel (1..4)
+    int supersample = 2;                       ///< n x n samples per pixel (1..4)
     Vec3 background = Vec3(0.18, 0.19, 0.21);  ///< linear RGB
-    bool transparentBackground = false;   ///< alpha 0 where nothing is drawn
-    std::string shaderDir;                ///< empty: found automatically (see findShaderDir)
-    GlBackend backend = GlBackend::Auto;  ///< the OpenGL context's source
+    bool transparentBackground = false;        ///< alpha 0 where nothing is drawn
+    std::string shaderDir;                     ///< empty: found automatically (see findShaderDir)
+    GlBackend backend = GlBackend::Auto;       ///< the OpenGL context's source
     /// Normals are smoothed across an edge only when its two faces' normals differ by at most
     /// this angle; sharper edges split the vertices (a crisp box). 180: smooth everywhere.
     /// The split is decided when a mesh's triangle list is first seen (0..180 degrees).

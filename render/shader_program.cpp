@@ -43,8 +43,8 @@ GLuint compile(GLenum type, const std::string& path, const std::string& preludeP
         if (source.compare(0, 8, "#version") != 0 || eol == std::string::npos) {
             throw RuntimeError("shader " + path + ": the first line must be the #version line");
         }
-        source = source.substr(0, eol + 1) + defines + "#line 1 1\n" + readShaderFile(preludePath) +
-                 "\n#line 2 0\n" + source.substr(eol + 1);
+        source = source.substr(0, eol + 1) + defines + "#line 1 1\n" + readShaderFile(preludePath) + "\n#line 2 0\n" +
+                 source.substr(eol + 1);
     }
     GLuint shader = glCreateShader(type);
     const char* text = source.c_str();
@@ -56,8 +56,7 @@ GLuint compile(GLenum type, const std::string& path, const std::string& preludeP
         const std::string log = shaderLog(shader);
         glDeleteShader(shader);
         throw RuntimeError("shader " + path + " does not compile" +
-                           (preludePath.empty() ? std::string()
-                                                : " (source 1 in the log is " + preludePath + ")") +
+                           (preludePath.empty() ? std::string() : " (source 1 in the log is " + preludePath + ")") +
                            ":\n" + log);
     }
     return shader;
@@ -74,16 +73,15 @@ std::string readShaderFile(const std::string& path) {
     return ss.str();
 }
 
-ShaderProgram::ShaderProgram(const std::string& dir, const std::string& vertexFile,
-                             const std::string& fragmentFile, const std::string& fragmentPrelude,
-                             const std::string& defines) {
+ShaderProgram::ShaderProgram(const std::string& dir, const std::string& vertexFile, const std::string& fragmentFile,
+                             const std::string& fragmentPrelude, const std::string& defines) {
     const std::string vpath = dir + "/" + vertexFile;
     const std::string fpath = dir + "/" + fragmentFile;
     GLuint vs = compile(GL_VERTEX_SHADER, vpath);
     GLuint fs = 0;
     try {
-        fs = compile(GL_FRAGMENT_SHADER, fpath,
-                     fragmentPrelude.empty() ? std::string() : dir + "/" + fragmentPrelude, defines);
+        fs = compile(GL_FRAGMENT_SHADER, fpath, fragmentPrelude.empty() ? std::string() : dir + "/" + fragmentPrelude,
+                     defines);
     } catch (...) {
         glDeleteShader(vs);
         throw;

@@ -31,14 +31,14 @@ ForceField gentleVortex();
 /// The median of `v` (the mean of the middle two for an even count; v non-empty). (bench_common.cpp)
 double median(std::vector<double> v);
 
-void geometry(std::ostream& out, const BenchOptions& options);  // bench_geometry.cpp
-void voxelise(std::ostream& out, const BenchOptions& options);  // bench_voxelise.cpp
-void render(std::ostream& out, const BenchOptions& options);    // bench_render.cpp
-void reconstruct(std::ostream& out, const BenchOptions& options);  // bench_reconstruct.cpp
-void gln(std::ostream& out, const BenchOptions& options);          // bench_gln.cpp
-void step(std::ostream& out, const BenchOptions& options);         // bench_step.cpp
-void vdb(std::ostream& out, const BenchOptions& options);          // bench_vdb.cpp
-void volume(std::ostream& out, const BenchOptions& options);       // bench_volume.cpp
+void geometry(std::ostream& out, const BenchOptions& options);       // bench_geometry.cpp
+void voxelise(std::ostream& out, const BenchOptions& options);       // bench_voxelise.cpp
+void render(std::ostream& out, const BenchOptions& options);         // bench_render.cpp
+void reconstruct(std::ostream& out, const BenchOptions& options);    // bench_reconstruct.cpp
+void gln(std::ostream& out, const BenchOptions& options);            // bench_gln.cpp
+void step(std::ostream& out, const BenchOptions& options);           // bench_step.cpp
+void vdb(std::ostream& out, const BenchOptions& options);            // bench_vdb.cpp
+void volume(std::ostream& out, const BenchOptions& options);         // bench_volume.cpp
 void reparametrise(std::ostream& out, const BenchOptions& options);  // bench_reparametrise.cpp
 void contact(std::ostream& out, const BenchOptions& options);        // bench_contact.cpp
 

@@ -120,8 +120,9 @@ void contact(std::ostream& out, const BenchOptions& options) {
         int first = 0;
         const Timing t = run(rowScene(n, 0.15, 16, 0.02, true, "exact"), first, most, true);
         const std::string tag = "contact_row" + std::to_string(n);
-        out << tag << "_substep_ms: " << t.substepMs << " ms (" << n << " balls of r 8 voxels, exact, first contact at frame "
-            << first << ", " << t.frames << " frames in contact)\n";
+        out << tag << "_substep_ms: " << t.substepMs << " ms (" << n
+            << " balls of r 8 voxels, exact, first contact at frame " << first << ", " << t.frames
+            << " frames in contact)\n";
         out << tag << "_per_body_ms: " << t.substepMs / n << " ms\n";
     }
 }

@@ -18,10 +18,9 @@ void geometry(std::ostream& out, const BenchOptions& options) {
     const Vec3i dims(n, n, n);
     const Real h = 1.0 / n;
     const auto t0 = std::chrono::steady_clock::now();
-    const Lattice lat = buildLattice(
-        Vec3::Zero(), h, dims, std::vector<unsigned char>(static_cast<std::size_t>(n) * n * n, 1));
-    const double buildSeconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const Lattice lat =
+        buildLattice(Vec3::Zero(), h, dims, std::vector<unsigned char>(static_cast<std::size_t>(n) * n * n, 1));
+    const double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
     // A twist of one radian over the height, so that the connection is not trivially zero.
     std::vector<Vec3> x = restPositions(lat);
@@ -37,8 +36,7 @@ void geometry(std::ostream& out, const BenchOptions& options) {
     for (int r = 0; r < repeats; ++r) {
         const auto start = std::chrono::steady_clock::now();
         computeGeometricState(lat, x, state);
-        seconds.push_back(
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     }
     std::sort(seconds.begin(), seconds.end());
     const double best = seconds.front();
@@ -47,8 +45,7 @@ void geometry(std::ostream& out, const BenchOptions& options) {
     out << "geometry.lattice_build: " << buildSeconds << " s\n";
     out << "geometry.state_min: " << best << " s\n";
     out << "geometry.state_median: " << median << " s\n";
-    out << "geometry.points_per_second: " << static_cast<double>(lat.size()) / best
-        << " points/s\n";
+    out << "geometry.points_per_second: " << static_cast<double>(lat.size()) / best << " points/s\n";
     out << "geometry.peak_rss: " << peakRssMiB() << " MiB\n";
 }
 

@@ -42,7 +42,8 @@ ClosedCurve torusCurve(Real R, Real r, int k, Real phase, Index n) {
     ClosedCurve c(static_cast<std::size_t>(n));
     for (Index i = 0; i < n; ++i) {
         const Real t = 2 * M_PI * static_cast<Real>(i) / static_cast<Real>(n), p = k * t + phase;
-        c[static_cast<std::size_t>(i)] = Vec3((R + r * std::cos(p)) * std::cos(t), (R + r * std::cos(p)) * std::sin(t), r * std::sin(p));
+        c[static_cast<std::size_t>(i)] =
+            Vec3((R + r * std::cos(p)) * std::cos(t), (R + r * std::cos(p)) * std::sin(t), r * std::sin(p));
     }
     return c;
 }
@@ -107,36 +108,39 @@ void gln(std::ostream& out, const BenchOptions& options) {
     // "apart": the components on opposite sides of the tube (closest approach 1.4, mostly far
     // field); "close": phases 0 and 0.05 (closest approach 0.035 all along: a near field
     // everywhere, the hard case). Both link k times.
-    for (const Index n : sizes) for (const bool close : {false, true}) {
-        const std::string tag = "gln." + std::to_string(n / 1000) + "k_" + (close ? "close" : "apart");
-        const ClosedCurve a = torusCurve(2, 0.7, k, 0, n), b = torusCurve(2, 0.7, k, close ? 0.05 : M_PI, n);
-        GlnResult r;
-        const double cpu0 = cpuSeconds();
-        const int reps = n >= 1000000 ? 1 : std::max(1, options.repeats);
-        const Timed t = timeIt(reps, [&] { r = linkingNumber(a, b); });
-        const double cpu = (cpuSeconds() - cpu0) / reps;
-        out << tag << ".segments: " << n << " + " << n << " segments\n";
-        out << tag << ".linking: " << (r.status == GlnStatus::Certified ? std::to_string(r.linking) : std::string("not certified"))
-            << " (expected +-" << k << ")\n";
-        out << tag << ".raw: " << r.raw << " bound " << r.bound << "\n";
-        out << tag << ".method: " << r.method << ", " << r.passes << " pass(es), " << r.pairsExact << " exact pairs, "
-            << r.farPairs << " far node pairs\n";
-        out << tag << ".certified_min: " << t.best << " s\n";
-        out << tag << ".certified_median: " << t.median << " s\n";
-        out << tag << ".certified_cpu: " << cpu << " s (CPU time, all threads)\n";
-        const double pairs = static_cast<double>(n) * static_cast<double>(n);
-        out << tag << ".direct_projected: " << pairs / rate << " s (" << pairs << " pairs at the measured direct rate)\n";
-        // The seed's listing on the same curves: its cost depends on the tolerance only.
-        if (close) continue;
-        for (const Real tol : {10.0, 1.0, 0.2}) {
-            SeedGln s;
-            const Timed ts = timeIt(1, [&] { s = glnSeed(a, b, tol); });
-            char key[32];
-            std::snprintf(key, sizeof key, "%g", tol);
-            out << tag << ".seed_tol" << key << ": " << s.gln << " in " << ts.best << " s (" << s.chordsA << " x "
-                << s.chordsB << " chords)\n";
+    for (const Index n : sizes)
+        for (const bool close : {false, true}) {
+            const std::string tag = "gln." + std::to_string(n / 1000) + "k_" + (close ? "close" : "apart");
+            const ClosedCurve a = torusCurve(2, 0.7, k, 0, n), b = torusCurve(2, 0.7, k, close ? 0.05 : M_PI, n);
+            GlnResult r;
+            const double cpu0 = cpuSeconds();
+            const int reps = n >= 1000000 ? 1 : std::max(1, options.repeats);
+            const Timed t = timeIt(reps, [&] { r = linkingNumber(a, b); });
+            const double cpu = (cpuSeconds() - cpu0) / reps;
+            out << tag << ".segments: " << n << " + " << n << " segments\n";
+            out << tag << ".linking: "
+                << (r.status == GlnStatus::Certified ? std::to_string(r.linking) : std::string("not certified"))
+                << " (expected +-" << k << ")\n";
+            out << tag << ".raw: " << r.raw << " bound " << r.bound << "\n";
+            out << tag << ".method: " << r.method << ", " << r.passes << " pass(es), " << r.pairsExact
+                << " exact pairs, " << r.farPairs << " far node pairs\n";
+            out << tag << ".certified_min: " << t.best << " s\n";
+            out << tag << ".certified_median: " << t.median << " s\n";
+            out << tag << ".certified_cpu: " << cpu << " s (CPU time, all threads)\n";
+            const double pairs = static_cast<double>(n) * static_cast<double>(n);
+            out << tag << ".direct_projected: " << pairs / rate << " s (" << pairs
+                << " pairs at the measured direct rate)\n";
+            // The seed's listing on the same curves: its cost depends on the tolerance only.
+            if (close) continue;
+            for (const Real tol : {10.0, 1.0, 0.2}) {
+                SeedGln s;
+                const Timed ts = timeIt(1, [&] { s = glnSeed(a, b, tol); });
+                char key[32];
+                std::snprintf(key, sizeof key, "%g", tol);
+                out << tag << ".seed_tol" << key << ": " << s.gln << " in " << ts.best << " s (" << s.chordsA << " x "
+                    << s.chordsB << " chords)\n";
+            }
         }
-    }
     out << "gln.peak_rss: " << peakRssMiB() << " MiB\n";
 }
 

@@ -63,7 +63,8 @@ Problem makeProblem(Real radius, Real twist, Real bend) {
     std::vector<Mat3> trueFrames(static_cast<std::size_t>(pr.lat.size()));
     for (Index p = 0; p < pr.lat.size(); ++p)
         for (int a = 0; a < 3; ++a)
-            trueFrames[static_cast<std::size_t>(p)].col(a) = st.tangent[static_cast<std::size_t>(a)][static_cast<std::size_t>(p)];
+            trueFrames[static_cast<std::size_t>(p)].col(a) =
+                st.tangent[static_cast<std::size_t>(a)][static_cast<std::size_t>(p)];
     pr.pins = centrePins(pr.lat, pr.truth, trueFrames);
     ReconstructSettings s;
     s.method = ReconstructMethod::Path;
@@ -87,7 +88,8 @@ void reconstruct(std::ostream& out, const BenchOptions& options) {
         std::vector<Mat3> trueFrames(static_cast<std::size_t>(lat.size()));
         for (Index p = 0; p < lat.size(); ++p)
             for (int a = 0; a < 3; ++a)
-                trueFrames[static_cast<std::size_t>(p)].col(a) = st.tangent[static_cast<std::size_t>(a)][static_cast<std::size_t>(p)];
+                trueFrames[static_cast<std::size_t>(p)].col(a) =
+                    st.tangent[static_cast<std::size_t>(a)][static_cast<std::size_t>(p)];
         const std::vector<Pin> pins = centrePins(lat, truth, trueFrames);
         ReconstructSettings s;  // LeastSquares, tolerance 1e-8
         std::vector<double> tTransport, tFrames, tCold, tWarm, cpuCold, cpuWarm;
@@ -189,8 +191,8 @@ void reconstruct(std::ostream& out, const BenchOptions& options) {
             if (r.converged) {
                 out << key << ": " << r.iterations << " iterations, " << wall << " s\n";
             } else {
-                out << key << ": not converged after " << wall << " s (" << r.iterations
-                    << " iterations, residual " << r.residual << ")\n";
+                out << key << ": not converged after " << wall << " s (" << r.iterations << " iterations, residual "
+                    << r.residual << ")\n";
             }
             fits[m].push_back(Point{Real(pr.lat.size()), r.iterations, r.converged});
         }
@@ -214,8 +216,7 @@ void reconstruct(std::ostream& out, const BenchOptions& options) {
             continue;
         }
         const Real slope = (k * sxy - sx * sy) / (k * sxx - sx * sx);
-        out << key << ": iterations ~ N^" << slope << " = n^" << 3 * slope
-            << " (n = N^(1/3) points per side)\n";
+        out << key << ": iterations ~ N^" << slope << " = n^" << 3 * slope << " (n = N^(1/3) points per side)\n";
     }
     out << "reconstruct.peak_rss: " << peakRssMiB() << " MiB\n";
 }

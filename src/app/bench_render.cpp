@@ -174,8 +174,8 @@ void main() {
     }
 
     out << "render.gl_renderer: " << glName << "\n";
-    out << "render.size: " << settings.width << "x" << settings.height << " x" << settings.supersample
-        << "x" << settings.supersample << " supersampled, " << scene.meshes[0].triangles.size() << " triangles\n";
+    out << "render.size: " << settings.width << "x" << settings.height << " x" << settings.supersample << "x"
+        << settings.supersample << " supersampled, " << scene.meshes[0].triangles.size() << " triangles\n";
     out << "render.prepare_ms_median: " << median(prepare) << " ms\n";
     out << "render.shadow_pass_ms_median: " << median(shadow) << " ms\n";
     out << "render.scene_pass_ms_median: " << median(scenePass) << " ms\n";

@@ -29,7 +29,7 @@ void step(std::ostream& out, const BenchOptions& options) {
     const int repeats = std::max(1, options.repeats);
     std::vector<double> logN, logT;
     for (Real r : radii) {
-        const Real h = 0.5 / r;  // a ball of radius 0.5 m
+        const Real h = 0.5 / r;                                     // a ball of radius 0.5 m
         const Lattice lat = withoutLoosePoints(ballLattice(r, h));  // as a scene's object (scene_build)
         DynamicsSettings settings;
         settings.frameSweepsAfter = 0;  // the frame sweeps from the first step, as in a body long in free flight
@@ -59,12 +59,16 @@ void step(std::ostream& out, const BenchOptions& options) {
         out << tag << "_forces: " << best.forcesSeconds << " s\n";
         out << tag << "_body_flex: " << best.bodyFlexSeconds << " s\n";
         out << tag << "_twist: " << best.twistSeconds << " s\n";
-        out << tag << "_reconstruct: " << best.reconstructSeconds << " s (" << best.reconstructIterations << " CG iterations)\n";
-        out << tag << "_reconstruct_edges: " << best.reconstructEdgeSeconds << " s (both connections' edge transports)\n";
-        out << tag << "_reconstruct_frames: " << best.reconstructFrameSeconds << " s (along the tree, then the sweeps)\n";
+        out << tag << "_reconstruct: " << best.reconstructSeconds << " s (" << best.reconstructIterations
+            << " CG iterations)\n";
+        out << tag << "_reconstruct_edges: " << best.reconstructEdgeSeconds
+            << " s (both connections' edge transports)\n";
+        out << tag << "_reconstruct_frames: " << best.reconstructFrameSeconds
+            << " s (along the tree, then the sweeps)\n";
         out << tag << "_reconstruct_solve: " << best.reconstructSolveSeconds << " s (least squares)\n";
         out << tag << "_collide: " << best.collideSeconds << " s\n";
-        out << tag << "_volume: " << best.volumeSeconds << " s (" << best.volumeIterations << " Gauss-Newton iterations)\n";
+        out << tag << "_volume: " << best.volumeSeconds << " s (" << best.volumeIterations
+            << " Gauss-Newton iterations)\n";
         out << tag << "_state: " << best.stateSeconds << " s\n";
         out << tag << "_max_cell_volume_error: " << best.maxCellVolumeError << "\n";
         logN.push_back(std::log(static_cast<double>(lat.size())));

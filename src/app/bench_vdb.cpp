@@ -51,7 +51,8 @@ void vdb(std::ostream& out, const BenchOptions& options) {
     VdbFrameInfo info;
     info.scene = "bench";
 
-    const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("dgv-bench-vdb-" + std::to_string(::getpid()));
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / ("dgv-bench-vdb-" + std::to_string(::getpid()));
     ensureDirectory(dir);
     std::vector<double> total, resample, write;
     std::vector<VdbStageSeconds> stages;
@@ -75,7 +76,8 @@ void vdb(std::ostream& out, const BenchOptions& options) {
     out << "vdb.resample_seconds_median: " << median(resample) << " s\n";
     out << "vdb.write_seconds_median: " << median(write) << " s\n";
     // the stages of the fastest frame
-    const VdbStageSeconds& st = stages[static_cast<std::size_t>(std::min_element(total.begin(), total.end()) - total.begin())];
+    const VdbStageSeconds& st =
+        stages[static_cast<std::size_t>(std::min_element(total.begin(), total.end()) - total.begin())];
     out << "vdb.stage_cells: " << st.cells << " s\n";
     out << "vdb.stage_bins: " << st.bins << " s\n";
     out << "vdb.stage_voxels: " << st.voxels << " s\n";

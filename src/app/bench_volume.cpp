@@ -84,8 +84,8 @@ void volume(std::ostream& out, const BenchOptions& options) {
                 seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
             }
             const std::string key = tag + "." + configs[k].name;
-            out << key << ".iterations: " << r.iterations << " Gauss-Newton, " << r.linearIterations
-                << " CG" << (r.converged ? "" : " (not converged)") << "\n";
+            out << key << ".iterations: " << r.iterations << " Gauss-Newton, " << r.linearIterations << " CG"
+                << (r.converged ? "" : " (not converged)") << "\n";
             out << key << ".seconds: " << *std::min_element(seconds.begin(), seconds.end()) << " s min, "
                 << median(seconds) << " s median\n";
             out << key << ".max_error: " << r.maxErrorBefore << " before, " << r.maxErrorAfter << " after\n";

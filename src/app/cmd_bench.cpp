@@ -15,11 +15,16 @@ namespace dgv::app {
 
 int runBench(const BenchCommandOptions& options) {
     using Fn = std::function<void(std::ostream&, const bench::BenchOptions&)>;
-    const std::map<std::string, Fn> built = {
-        {"geometry", bench::geometry}, {"voxelise", bench::voxelise}, {"render", bench::render},
-        {"gln", bench::gln}, {"reconstruct", bench::reconstruct}, {"volume", bench::volume},
-        {"vdb", bench::vdb}, {"step", bench::step}, {"reparametrise", bench::reparametrise},
-        {"contact", bench::contact}};
+    const std::map<std::string, Fn> built = {{"geometry", bench::geometry},
+                                             {"voxelise", bench::voxelise},
+                                             {"render", bench::render},
+                                             {"gln", bench::gln},
+                                             {"reconstruct", bench::reconstruct},
+                                             {"volume", bench::volume},
+                                             {"vdb", bench::vdb},
+                                             {"step", bench::step},
+                                             {"reparametrise", bench::reparametrise},
+                                             {"contact", bench::contact}};
     std::string all;  // the names, for the error below
     for (const auto& [name, fn] : built) all += (all.empty() ? "" : ", ") + name;
     std::vector<std::string> names = options.names;
@@ -30,7 +35,8 @@ int runBench(const BenchCommandOptions& options) {
     bench::BenchOptions bo;
     bo.repeats = options.repeats;
     bo.quick = options.quick;
-    std::cout << "bench.threads: " << tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) << " threads" << std::endl;
+    std::cout << "bench.threads: " << tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)
+              << " threads" << std::endl;
     for (const std::string& n : names) {
         std::cout.flags(std::ios::fmtflags{});  // each benchmark starts with default formatting
         std::cout.precision(6);

@@ -57,10 +57,9 @@ fs::path farmDir(const std::string& dir) { return fs::path(dir) / "farm"; }
 
 std::string shotText(const Shot& s) {
     std::ostringstream o;
-    o << "scene=" << s.scene << "\nname=" << s.name << "\ndir=" << s.dir << "\nfirst=" << s.first
-      << "\nlast=" << s.last << "\nchunk=" << s.chunk << "\nsimulate=" << (s.simulate ? 1 : 0)
-      << "\npartition=" << s.partition << "\nsim_job=" << s.simJob << "\nrender_job=" << s.renderJob
-      << "\ncheck_job=" << s.checkJob << "\n";
+    o << "scene=" << s.scene << "\nname=" << s.name << "\ndir=" << s.dir << "\nfirst=" << s.first << "\nlast=" << s.last
+      << "\nchunk=" << s.chunk << "\nsimulate=" << (s.simulate ? 1 : 0) << "\npartition=" << s.partition
+      << "\nsim_job=" << s.simJob << "\nrender_job=" << s.renderJob << "\ncheck_job=" << s.checkJob << "\n";
     return o.str();
 }
 
@@ -209,7 +208,8 @@ std::string selfPath() {
 std::vector<char> framesDone(const Shot& s) {
     std::vector<char> done;
     for (int f = s.first; f <= s.last; ++f)
-        done.push_back(frameIsComplete(framePath(s.dir, s.name, f), f, s.width, s.height, s.key, nullptr, true) ? 1 : 0);
+        done.push_back(frameIsComplete(framePath(s.dir, s.name, f), f, s.width, s.height, s.key, nullptr, true) ? 1
+                                                                                                                : 0);
     return done;
 }
 
@@ -253,7 +253,8 @@ std::string queued(const Shot& s) {
 }
 
 int submit(const FarmOptions& o) {
-    if (o.chunk <= 0) throw InputError("--chunk", "", "expected a positive number of frames, got " + std::to_string(o.chunk));
+    if (o.chunk <= 0)
+        throw InputError("--chunk", "", "expected a positive number of frames, got " + std::to_string(o.chunk));
     std::error_code ec;
     if (!fs::is_regular_file(o.scene, ec)) throw InputError(o.scene, "", "no such scene file");
     const SceneDesc scene = loadScene(o.scene);
@@ -277,7 +278,8 @@ int submit(const FarmOptions& o) {
         throw InputError(o.dir.empty() ? o.scene : "--out", "",
                          s.dir + " holds the farm of another shot (" + other.scene + "); choose another output folder");
     if (!o.dryRun && !onPath("sbatch"))
-        throw InputError("dgv farm submit", "", "sbatch is not on PATH: run it on a Slurm submit host, or use --dry-run");
+        throw InputError("dgv farm submit", "",
+                         "sbatch is not on PATH: run it on a Slurm submit host, or use --dry-run");
 
     const std::string dgv = selfPath();
     const fs::path fd = farmDir(s.dir);
@@ -285,8 +287,10 @@ int submit(const FarmOptions& o) {
     const std::string render = renderScript(s, dgv);
     const std::string check = checkScript(s, dgv, o);
     if (o.dryRun) {
-        if (s.simulate) std::printf("# %s\n%s", (fd / "simulate.sbatch").c_str(), sim.c_str());
-        else std::printf("# no simulation job: nothing in '%s' moves\n", s.name.c_str());
+        if (s.simulate)
+            std::printf("# %s\n%s", (fd / "simulate.sbatch").c_str(), sim.c_str());
+        else
+            std::printf("# no simulation job: nothing in '%s' moves\n", s.name.c_str());
         std::printf("# %s (sbatch%s)\n%s", (fd / "render.sbatch").c_str(),
                     s.simulate ? " --dependency=afterok:<simulate>" : "", render.c_str());
         std::printf("# %s (sbatch --dependency=afterok:<render>)\n%s", (fd / "check.sbatch").c_str(), check.c_str());
@@ -300,8 +304,9 @@ int submit(const FarmOptions& o) {
     // A new submission: the exit markers of an earlier one say nothing about it.
     for (const auto& entry : fs::directory_iterator(fd / "done", ec)) fs::remove(entry.path(), ec);
     if (s.simulate) s.simJob = sbatch({}, fd / "simulate.sbatch");
-    s.renderJob = sbatch(s.simulate ? std::vector<std::string>{"--dependency=afterok:" + s.simJob} : std::vector<std::string>{},
-                         fd / "render.sbatch");
+    s.renderJob =
+        sbatch(s.simulate ? std::vector<std::string>{"--dependency=afterok:" + s.simJob} : std::vector<std::string>{},
+               fd / "render.sbatch");
     s.checkJob = sbatch({"--dependency=afterok:" + s.renderJob}, fd / "check.sbatch");
     writeTextAtomically(fd / "shot.txt", shotText(s));
     if (s.simulate) std::printf("simulate %s\n", s.simJob.c_str());
@@ -329,15 +334,19 @@ int status(const FarmOptions& o) {
     const int sim = markerCode(s, "simulate");
     if (s.simulate)
         std::printf("simulate (job %s): %s\n", s.simJob.c_str(),
-                    sim < 0 ? "not finished" : sim == 0 ? "done" : ("FAILED, exit " + std::to_string(sim) +
-                    " (see farm/logs/simulate.out); the render tasks and the check never start").c_str());
+                    sim < 0    ? "not finished"
+                    : sim == 0 ? "done"
+                               : ("FAILED, exit " + std::to_string(sim) +
+                                  " (see farm/logs/simulate.out); the render tasks and the check never start")
+                                     .c_str());
     int failed = 0;
     for (int t = 0; t < s.tasks(); ++t) {
         int missing = 0;
-        for (int f = s.taskFirst(t); f <= s.taskLast(t); ++f) missing += !complete[static_cast<std::size_t>(f - s.first)];
+        for (int f = s.taskFirst(t); f <= s.taskLast(t); ++f)
+            missing += !complete[static_cast<std::size_t>(f - s.first)];
         const int rc = markerCode(s, "render." + std::to_string(t));
-        const char* state = missing == 0 ? "done"
-                            : rc > 0     ? "FAILED"
+        const char* state = missing == 0            ? "done"
+                            : rc > 0                ? "FAILED"
                             : s.simulate && sim > 0 ? "never ran (the simulation failed)"
                                                     : "not finished";
         if (missing && rc > 0) ++failed;
@@ -348,14 +357,16 @@ int status(const FarmOptions& o) {
     }
     const int check = markerCode(s, "check");
     std::printf("check (job %s): %s\n", s.checkJob.c_str(),
-                check < 0 ? "not finished" : check == 0 ? "done" : ("FAILED, exit " + std::to_string(check)).c_str());
+                check < 0    ? "not finished"
+                : check == 0 ? "done"
+                             : ("FAILED, exit " + std::to_string(check)).c_str());
     const std::string q = queued(s);
     if (!q.empty()) std::printf("in the queue (id state reason):\n%s", q.c_str());
     if (failed > 0 || (s.simulate && sim > 0))
         std::printf("dgv farm resubmit %s renders only what is missing\n", shellQuote(s.dir).c_str());
     if (o.check && done < total) {
-        std::fprintf(stderr, "dgv: error: %s: %d of %d frames are missing or incomplete\n", s.dir.c_str(),
-                     total - done, total);
+        std::fprintf(stderr, "dgv: error: %s: %d of %d frames are missing or incomplete\n", s.dir.c_str(), total - done,
+                     total);
         return kExitFailure;
     }
     return kExitOk;

@@ -38,9 +38,12 @@ int runGln(const GlnOptions& options) {
 
     const GlnResult r = linkingNumber(a, b);
     const double t = seconds();
-    if (r.status == GlnStatus::Certified) std::printf("gln: %lld\n", r.linking);
-    else if (r.status == GlnStatus::Intersect) std::printf("gln: undefined (curves intersect)\n");
-    else std::printf("gln: uncertain\n");
+    if (r.status == GlnStatus::Certified)
+        std::printf("gln: %lld\n", r.linking);
+    else if (r.status == GlnStatus::Intersect)
+        std::printf("gln: undefined (curves intersect)\n");
+    else
+        std::printf("gln: uncertain\n");
     std::printf("raw: %.17g\n", r.raw);
     std::printf("bound: %.3g\n", r.bound);
     std::printf("method: exact, %s%s\n", r.method.c_str(),
@@ -51,13 +54,16 @@ int runGln(const GlnOptions& options) {
     std::printf("time: %.6f s\n", t);
     std::fflush(stdout);
     if (r.status == GlnStatus::Intersect) {
-        std::fprintf(stderr, "dgv gln: curves intersect (%lld touching segment pair%s); the linking number is undefined\n",
+        std::fprintf(stderr,
+                     "dgv gln: curves intersect (%lld touching segment pair%s); the linking number is undefined\n",
                      static_cast<long long>(r.intersections), r.intersections == 1 ? "" : "s");
         return kExitFailure;
     }
     if (r.status == GlnStatus::Uncertain) {
-        std::fprintf(stderr, "dgv gln: the curves come closer than double precision resolves; the linking number "
-                             "cannot be certified (raw %.6g, bound %.3g)\n", r.raw, r.bound);
+        std::fprintf(stderr,
+                     "dgv gln: the curves come closer than double precision resolves; the linking number "
+                     "cannot be certified (raw %.6g, bound %.3g)\n",
+                     r.raw, r.bound);
         return kExitFailure;
     }
     return kExitOk;

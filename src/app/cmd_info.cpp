@@ -15,8 +15,9 @@ namespace dgv::app {
 int runInfo(const InfoOptions& options) {
     // A scene file given where a mesh is expected: assimp said only "No suitable reader found".
     if (std::filesystem::path(options.mesh).extension() == ".json")
-        throw InputError(options.mesh, "", "is a scene file; 'dgv info' reads a mesh (give the mesh file the scene names, "
-                                           "or run 'dgv render' or 'dgv simulate' on the scene)");
+        throw InputError(options.mesh, "",
+                         "is a scene file; 'dgv info' reads a mesh (give the mesh file the scene names, "
+                         "or run 'dgv render' or 'dgv simulate' on the scene)");
     MeshImportOptions importOptions;
     importOptions.meshName = options.meshName;
     MeshImportReport importReport;
@@ -24,8 +25,10 @@ int runInfo(const InfoOptions& options) {
     MeshReport m = analyseMesh(mesh);
 
     VoxeliseSettings vs;
-    if (options.voxelSize > 0) vs.voxelSize = options.voxelSize;
-    else vs.resolution = options.resolution > 0 ? options.resolution : 64;
+    if (options.voxelSize > 0)
+        vs.voxelSize = options.voxelSize;
+    else
+        vs.resolution = options.resolution > 0 ? options.resolution : 64;
     VoxeliseReport v;
     Lattice lat;
     try {
@@ -48,7 +51,8 @@ int runInfo(const InfoOptions& options) {
     std::printf("manifold: %s\n", m.manifold ? "yes" : "no");
     std::printf("boundary_edges: %zu\n", m.boundaryEdges);
     std::printf("non_manifold_edges: %zu\n", m.nonManifoldEdges);
-    std::printf("mesh_volume: %.6g%s\n", m.signedVolume, m.closed ? "" : "  (open mesh: signed tetrahedra, approximate)");
+    std::printf("mesh_volume: %.6g%s\n", m.signedVolume,
+                m.closed ? "" : "  (open mesh: signed tetrahedra, approximate)");
     std::printf("voxel_size: %.6g\n", v.spacing);
     std::printf("lattice: %d x %d x %d\n", v.dims.x(), v.dims.y(), v.dims.z());
     std::printf("voxels: %lld\n", static_cast<long long>(v.points));

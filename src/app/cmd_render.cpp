@@ -40,7 +40,9 @@ namespace {
 
 /// Parses "WxH" (16..16384 each).
 void parseResolution(const std::string& text, int& width, int& height) {
-    auto bad = [&] { throw InputError("--resolution", "", "expected WxH with W and H in 16..16384, got \"" + text + "\""); };
+    auto bad = [&] {
+        throw InputError("--resolution", "", "expected WxH with W and H in 16..16384, got \"" + text + "\"");
+    };
     const std::size_t x = text.find_first_of("xX");
     if (x == std::string::npos || x == 0 || x + 1 >= text.size()) bad();
     try {
@@ -135,7 +137,8 @@ void stampFrameNumber(Image& image, int number) {
                 if (kDigits[text[c] - '0'][row][col] == '#')
                     for (int dy = 0; dy < kScale; ++dy)
                         for (int dx = 0; dx < kScale; ++dx)
-                            set(x0 + kPad + (static_cast<int>(c) * 4 + col) * kScale + dx, y0 + kPad + row * kScale + dy, 65535);
+                            set(x0 + kPad + (static_cast<int>(c) * 4 + col) * kScale + dx,
+                                y0 + kPad + row * kScale + dy, 65535);
 }
 
 Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
@@ -149,8 +152,8 @@ Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
     for (int k = 0; k < n; ++k) {
         const int ox = pad + (k % cols) * (tw + pad), oy = pad + (k / cols) * (th + pad);
         for (int y = 0; y < th; ++y)
-            std::copy(thumbs[static_cast<std::size_t>(k)].pixel(0, y), thumbs[static_cast<std::size_t>(k)].pixel(0, y) + 4 * tw,
-                      sheet.pixel(ox, oy + y));
+            std::copy(thumbs[static_cast<std::size_t>(k)].pixel(0, y),
+                      thumbs[static_cast<std::size_t>(k)].pixel(0, y) + 4 * tw, sheet.pixel(ox, oy + y));
     }
     return sheet;
 }
@@ -168,24 +171,30 @@ int runRender(const RenderOptions& options) {
     if (!options.frames.empty()) parseFrameRange(options.frames, scene, first, last);
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();
     if (!options.mesh.empty()) scene.output.mesh = options.mesh;
-    checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out", options.outDir.empty() ? "output.dir" : "");
+    checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out",
+                      options.outDir.empty() ? "output.dir" : "");
     if (options.width > 0) scene.render.width = options.width;
     if (options.height > 0) scene.render.height = options.height;
     if (!options.resolution.empty()) parseResolution(options.resolution, scene.render.width, scene.render.height);
     GlBackend backend = GlBackend::Auto;
-    if (options.glBackend == "egl") backend = GlBackend::Egl;
-    else if (options.glBackend == "osmesa") backend = GlBackend::OsMesa;
+    if (options.glBackend == "egl")
+        backend = GlBackend::Egl;
+    else if (options.glBackend == "osmesa")
+        backend = GlBackend::OsMesa;
     else if (options.glBackend != "auto")
         throw InputError("--gl-backend", "", "expected auto, egl or osmesa, got \"" + options.glBackend + "\"");
     if (static_cast<long long>(scene.render.width) * scene.render.supersample > 16384 ||
         static_cast<long long>(scene.render.height) * scene.render.supersample > 16384)
-        throw InputError("--resolution", "", "width and height times the scene's supersample (" +
-                                                 std::to_string(scene.render.supersample) + ") must stay within 16384");
+        throw InputError("--resolution", "",
+                         "width and height times the scene's supersample (" + std::to_string(scene.render.supersample) +
+                             ") must stay within 16384");
     if (options.movie && !onPath("ffmpeg"))
-        throw InputError("--movie", "", "ffmpeg is not on PATH: install it (Debian: apt-get install ffmpeg) or drop --movie");
+        throw InputError("--movie", "",
+                         "ffmpeg is not on PATH: install it (Debian: apt-get install ffmpeg) or drop --movie");
     if (!scene.curves.empty()) {  // the GLN figures
         if (options.contactSheet)
-            logInfo("--contact-sheet: '" + scene.name + "' is a curve scene (the GLN figures), which has no contact sheet; "
+            logInfo("--contact-sheet: '" + scene.name +
+                    "' is a curve scene (the GLN figures), which has no contact sheet; "
                     "rendering its frames without one");
         return renderCurveScene(scene, first, last);
     }
@@ -306,8 +315,9 @@ int runRender(const RenderOptions& options) {
     std::vector<std::unique_ptr<GlnNetwork>> loopNetworks(objects.size());
     if (rd.overlayGlnLoops) {
         if (loopSet == GlnLoopSet::Contact && scene.collision.detect != CollisionDesc::Detect::Gln)
-            logInfo("render.overlays.gln_loops: collision.detect is not \"gln\", so the loops drawn are those of the "
-                    "points in the signed-distance contact set");
+            logInfo(
+                "render.overlays.gln_loops: collision.detect is not \"gln\", so the loops drawn are those of the "
+                "points in the signed-distance contact set");
         for (std::size_t i = 0; i < objects.size(); ++i)
             if (objects[i].lattice.size() > 0) loopNetworks[i] = std::make_unique<GlnNetwork>(objects[i].lattice);
     }
@@ -316,9 +326,9 @@ int runRender(const RenderOptions& options) {
     png.bitDepth = scene.render.bitDepth;
     png.alpha = scene.render.transparent;
 
-    logInfo("rendering frames " + std::to_string(first) + "-" + std::to_string(last) + " of '" + scene.name +
-            "' at " + std::to_string(rs.width) + "x" + std::to_string(rs.height) + " into " + scene.output.dir +
-            " (" + glName + ")");
+    logInfo("rendering frames " + std::to_string(first) + "-" + std::to_string(last) + " of '" + scene.name + "' at " +
+            std::to_string(rs.width) + "x" + std::to_string(rs.height) + " into " + scene.output.dir + " (" + glName +
+            ")");
     Progress progress("render", last - first + 1, "frames");
     const Real aspect = Real(rs.width) / Real(rs.height);
     // Frame n is encoded and written on a worker thread while frame n+1 draws (same bytes,
@@ -376,9 +386,9 @@ int runRender(const RenderOptions& options) {
             deformVertices(body ? dynamics.embedding(i) : objects[i].embedding, body ? body->state() : objects[i].state,
                            frameScene.meshes[i].positions);
             if (contactMode != ContactHighlightMode::Off && body) {
-                std::vector<Real> pointValue =
-                    contactPointScalar(contactMode, body->contact(), body->contactDepth(),
-                                       dynamics.contactHistory(i).age(), rd.contactFadeFrames, frameScene.meshes[i].ramp.min);
+                std::vector<Real> pointValue = contactPointScalar(contactMode, body->contact(), body->contactDepth(),
+                                                                  dynamics.contactHistory(i).age(),
+                                                                  rd.contactFadeFrames, frameScene.meshes[i].ramp.min);
                 if (footprints) {
                     const std::vector<Vec3>& x = body->state().position;
                     const Real reach = body->lattice().spacing * (1 + rd.contactSpread);
@@ -397,9 +407,10 @@ int runRender(const RenderOptions& options) {
             }
             if (rd.overlayLattice) {
                 const std::vector<Vec3>& x = (body ? body->state() : objects[i].state).position;
-                frameScene.points[i].points = rd.overlayLatticeSet == "all" || !ownLattice
-                                                  ? x
-                                                  : latticeOverlayPoints(objects[i].lattice, x, latticeShown[i], &camera.eye);
+                frameScene.points[i].points =
+                    rd.overlayLatticeSet == "all" || !ownLattice
+                        ? x
+                        : latticeOverlayPoints(objects[i].lattice, x, latticeShown[i], &camera.eye);
             }
             if (rd.pins) {
                 std::vector<Vec3>& dots = frameScene.points[firstPinSet + i].points;
@@ -412,9 +423,9 @@ int runRender(const RenderOptions& options) {
             }
             if (loopNetworks[i] && ownLattice) {
                 static const std::vector<unsigned char> kNoContact;
-                for (ClosedCurve& loop : glnOverlayLoops(*loopNetworks[i], loopSet,
-                                                         (body ? body->state() : objects[i].state).position,
-                                                         body ? body->contact() : kNoContact, &camera.eye)) {
+                for (ClosedCurve& loop :
+                     glnOverlayLoops(*loopNetworks[i], loopSet, (body ? body->state() : objects[i].state).position,
+                                     body ? body->contact() : kNoContact, &camera.eye)) {
                     Polyline line;
                     line.points = std::move(loop);
                     line.colour = rd.overlayGlnColour;
@@ -512,9 +523,10 @@ int runRender(const RenderOptions& options) {
     if (options.movie) {
         // ffmpeg writes a temporary in the output folder, renamed when it succeeds.
         const fs::path moviePath = fs::path(scene.output.dir) / (scene.name + ".mp4");
-        const fs::path tmp = fs::path(scene.output.dir) / ("." + scene.name + ".mp4.tmp-" + std::to_string(getpid()) + ".mp4");
-        const std::string cmd = "ffmpeg -loglevel error -y -framerate " + std::to_string(scene.fps) + " -start_number " +
-                                std::to_string(first) + " -i " +
+        const fs::path tmp =
+            fs::path(scene.output.dir) / ("." + scene.name + ".mp4.tmp-" + std::to_string(getpid()) + ".mp4");
+        const std::string cmd = "ffmpeg -loglevel error -y -framerate " + std::to_string(scene.fps) +
+                                " -start_number " + std::to_string(first) + " -i " +
                                 shellQuote((fs::path(scene.output.dir) / (scene.name + ".%04d.png")).string()) +
                                 " -frames:v " + std::to_string(last - first + 1) +
                                 " -c:v libx264 -pix_fmt yuv420p -crf 18 -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' " +
@@ -540,8 +552,10 @@ int runRender(const RenderOptions& options) {
         else if (!(fs::file_size(tmp, ec) > 0) || ec)
             problem = "it wrote no movie";
         if (problem.empty() && onPath("ffprobe")) {
-            const std::string probe = "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
-                                      "stream=nb_read_frames -of csv=p=0 " + shellQuote(tmp.string()) + " 2>/dev/null";
+            const std::string probe =
+                "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                "stream=nb_read_frames -of csv=p=0 " +
+                shellQuote(tmp.string()) + " 2>/dev/null";
             std::string counted;
             if (FILE* f = popen(probe.c_str(), "r")) {
                 char buf[64];
@@ -555,14 +569,16 @@ int runRender(const RenderOptions& options) {
         }
         if (!problem.empty()) {
             fs::remove(tmp, ec);
-            throw RuntimeError("ffmpeg failed making " + moviePath.string() + " (" + problem + "); the frames are complete");
+            throw RuntimeError("ffmpeg failed making " + moviePath.string() + " (" + problem +
+                               "); the frames are complete");
         }
         fs::rename(tmp, moviePath, ec);
         if (ec) throw RuntimeError(moviePath.string() + ": " + ec.message());
         logInfo("wrote the preview movie " + moviePath.string());
     }
     if (options.resume)
-        logInfo("resume: kept " + std::to_string(kept) + " complete frames, rendered " + std::to_string(last - first + 1 - kept) +
+        logInfo("resume: kept " + std::to_string(kept) + " complete frames, rendered " +
+                std::to_string(last - first + 1 - kept) +
                 (replaced > 0 ? " (" + std::to_string(replaced) +
                                     " of them were on disk but incomplete, or of another version of the scene or its "
                                     "settings, and were replaced)"
@@ -583,7 +599,8 @@ std::string defaultScenePath() {
         fs::path share = exe.parent_path().parent_path() / "share" / "dgv" / "scenes" / "default.json";
         if (fs::exists(share)) return share.string();
     }
-    throw InputError("scenes/default.json", "", "default scene not found (run dgv from the project folder, or give a scene: dgv render SCENE)");
+    throw InputError("scenes/default.json", "",
+                     "default scene not found (run dgv from the project folder, or give a scene: dgv render SCENE)");
 }
 
 }  // namespace dgv::app

@@ -25,7 +25,8 @@ int runSimulate(const SimulateOptions& options) {
     if (!options.frames.empty()) parseFrameRange(options.frames, scene, first, last);
     if (options.frames.find('-', 1) == std::string::npos && !options.frames.empty()) first = scene.frameStart;
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();
-    checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out", options.outDir.empty() ? "output.dir" : "");
+    checkOutputFolder(scene.output.dir, options.outDir.empty() ? scene.path : "--out",
+                      options.outDir.empty() ? "output.dir" : "");
     const bool vdb = options.vdb || scene.output.vdb;
     if (!options.mesh.empty()) scene.output.mesh = options.mesh;
 
@@ -40,13 +41,13 @@ int runSimulate(const SimulateOptions& options) {
     if (!dynamics.active())
         logWarning(scene.path + ": nothing moves (no forces and no initial velocity); the frames are the rest state");
     ensureDirectory(scene.output.dir);
-    logInfo("simulating frames " + std::to_string(scene.frameStart) + "-" + std::to_string(last) + " of '" + scene.name +
-            "' (" +
+    logInfo("simulating frames " + std::to_string(scene.frameStart) + "-" + std::to_string(last) + " of '" +
+            scene.name + "' (" +
             (scene.maxSubsteps > scene.substeps
-                 ? std::to_string(scene.substeps) + "-" + std::to_string(scene.maxSubsteps) + " substeps per frame, adaptive"
+                 ? std::to_string(scene.substeps) + "-" + std::to_string(scene.maxSubsteps) +
+                       " substeps per frame, adaptive"
                  : std::to_string(scene.substeps) + " substeps per frame") +
-            ") into " + scene.output.dir +
-            (vdb ? " with the VDB cache" : ""));
+            ") into " + scene.output.dir + (vdb ? " with the VDB cache" : ""));
     // State checkpoints (docs/robustness.md): --resume continues from the latest one up to the
     // last frame; --frames A-B starts from the latest one up to A (frames before it are skipped).
     int from = scene.frameStart;
@@ -55,9 +56,10 @@ int runSimulate(const SimulateOptions& options) {
         if (restored >= 0) from = restored + 1;
     }
     if (options.resume)
-        logInfo("resume: " + (from > scene.frameStart ? "frames " + std::to_string(scene.frameStart) + "-" +
-                                                             std::to_string(from - 1) + " restored from the checkpoint"
-                                                       : std::string("no usable checkpoint")) +
+        logInfo("resume: " +
+                (from > scene.frameStart ? "frames " + std::to_string(scene.frameStart) + "-" +
+                                               std::to_string(from - 1) + " restored from the checkpoint"
+                                         : std::string("no usable checkpoint")) +
                 ", simulating " + std::to_string(std::max(0, last - from + 1)) + " frames");
     Progress progress("simulate", last - from + 1, "frames");
     for (int frame = from; frame <= last; ++frame) {
@@ -76,7 +78,9 @@ int runSimulate(const SimulateOptions& options) {
     progress.finish();
     logInfo("wrote " + (fs::path(scene.output.dir) / "stats.csv").string() +
             (vdb ? " and " + (fs::path(scene.output.dir) / "vdb").string() + "/" + scene.name + ".####.vdb" : "") +
-            (scene.output.mesh.empty() ? "" : " and " + (fs::path(scene.output.dir) / "mesh").string() + "/<object>.####." + scene.output.mesh));
+            (scene.output.mesh.empty()
+                 ? ""
+                 : " and " + (fs::path(scene.output.dir) / "mesh").string() + "/<object>.####." + scene.output.mesh));
     return kExitOk;
 }
 

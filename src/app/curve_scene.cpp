@@ -127,9 +127,11 @@ int renderCurveScene(const SceneDesc& scene, int first, int last) {
         row.distance = curveDistance(now[0], now[1]);
         for (Real tol : scene.gln.seedTolerances) row.seed.push_back(glnSeed(now[0], now[1], tol).gln);
         const GlnResult r = linkingNumber(now[0], now[1]);
-        row.exact = r.status == GlnStatus::Certified ? static_cast<Real>(r.linking) : std::numeric_limits<Real>::quiet_NaN();
+        row.exact =
+            r.status == GlnStatus::Certified ? static_cast<Real>(r.linking) : std::numeric_limits<Real>::quiet_NaN();
         if (r.status == GlnStatus::Intersect)
-            logInfo("frame " + std::to_string(frame) + ": the curves intersect; the exact GLN is undefined (nan in gln.csv)");
+            logInfo("frame " + std::to_string(frame) +
+                    ": the curves intersect; the exact GLN is undefined (nan in gln.csv)");
         else if (r.status == GlnStatus::Uncertain)
             logWarning("frame " + std::to_string(frame) + ": the exact GLN could not be certified (nan in gln.csv)");
         rows.push_back(row);
@@ -154,7 +156,8 @@ int renderCurveScene(const SceneDesc& scene, int first, int last) {
     for (const FrameRow& r : rows) {
         csv += std::to_string(r.frame) + "," + number(r.distance);
         for (Real v : r.seed) csv += "," + number(v);
-        csv += "," + (std::isfinite(r.exact) ? std::to_string(static_cast<long long>(r.exact)) : std::string("nan")) + "\n";
+        csv += "," + (std::isfinite(r.exact) ? std::to_string(static_cast<long long>(r.exact)) : std::string("nan")) +
+               "\n";
     }
     writeTextAtomically(fs::path(scene.output.dir) / "gln.csv", csv);
 

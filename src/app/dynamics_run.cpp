@@ -41,10 +41,12 @@ void parseFrameRange(const std::string& text, const SceneDesc& scene, int& first
             std::to_string(scene.frameEnd));
 }
 
-
 DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>& objects, bool writeVdb)
-    : mScene(scene), mObjects(objects), mVdb(writeVdb),
-      mMesh(scene.output.mesh.empty() ? MeshCacheFormat::None : meshCacheFormatFromName(scene.output.mesh, "output.mesh")) {
+    : mScene(scene),
+      mObjects(objects),
+      mVdb(writeVdb),
+      mMesh(scene.output.mesh.empty() ? MeshCacheFormat::None
+                                      : meshCacheFormatFromName(scene.output.mesh, "output.mesh")) {
     std::vector<const Lattice*> lattices;
     for (const BuiltObject& o : objects) lattices.push_back(&o.lattice);
     mSim = std::make_unique<Simulation>(scene, lattices, writeVdb);
@@ -198,9 +200,12 @@ int DynamicsRun::restoreCheckpoint(int frame) {
         StateCheckpoint c;
         std::string problem = readStateFile(path, c);
         if (problem.empty()) {
-            if (c.dgvVersion != DGV_VERSION_STRING) problem = "written by dgv " + c.dgvVersion;
-            else if (c.sceneKey != mSceneKey) problem = "of another scene or lattice";
-            else if (c.frame != k) problem = "holds frame " + std::to_string(c.frame);
+            if (c.dgvVersion != DGV_VERSION_STRING)
+                problem = "written by dgv " + c.dgvVersion;
+            else if (c.sceneKey != mSceneKey)
+                problem = "of another scene or lattice";
+            else if (c.frame != k)
+                problem = "holds frame " + std::to_string(c.frame);
             else if (c.statsRows.size() != static_cast<std::size_t>(k - mScene.frameStart + 1) ||
                      !mSim->stateFits(c.objects) || c.contactAges.size() != mObjects.size())
                 problem = "its arrays do not fit the scene's lattices";
@@ -215,7 +220,8 @@ int DynamicsRun::restoreCheckpoint(int frame) {
             // kept; the checkpoint is not used and the frames from an earlier one are made again.
             if (badVdb < 0)
                 for (int f = std::max({mDone + 1, mScene.frameStart, mFirstWritten}); f <= k && badVdb < 0; ++f) {
-                    badWhy = vdbFrameProblem(vdbFramePath(fs::path(mScene.output.dir) / "vdb", mScene.name, f), f, mFrameKey);
+                    badWhy = vdbFrameProblem(vdbFramePath(fs::path(mScene.output.dir) / "vdb", mScene.name, f), f,
+                                             mFrameKey);
                     if (!badWhy.empty()) badVdb = f;
                 }
             if (badVdb >= 0 && badVdb <= k) {
@@ -252,8 +258,8 @@ int DynamicsRun::restoreCheckpoint(int frame) {
         restored = k;
     }
     if (stale > 0)
-        logWarning("ignored " + std::to_string(stale) + " state checkpoint" + (stale > 1 ? "s" : "") + " (" + firstStale +
-                   (stale > 1 ? "; ..." : "") + "); they are rewritten as the frames are simulated");
+        logWarning("ignored " + std::to_string(stale) + " state checkpoint" + (stale > 1 ? "s" : "") + " (" +
+                   firstStale + (stale > 1 ? "; ..." : "") + "); they are rewritten as the frames are simulated");
     if (restored >= 0)
         logInfo("resuming the simulation from frame " + std::to_string(restored) + " (" +
                 stateFilePath(mScene.output.dir, mScene.name, restored).string() + ")");

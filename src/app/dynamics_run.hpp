@@ -68,10 +68,10 @@ private:
     const SceneDesc& mScene;
     const std::vector<BuiltObject>& mObjects;
     bool mVdb = false;
-    bool mReadOnly = false;  ///< setReadOnly: nothing but the frames is written
+    bool mReadOnly = false;                         ///< setReadOnly: nothing but the frames is written
     MeshCacheFormat mMesh = MeshCacheFormat::None;  ///< output.mesh (io/mesh_cache.hpp)
     std::unique_ptr<Simulation> mSim;
-    int mDone = -1;  ///< last frame recorded
+    int mDone = -1;         ///< last frame recorded
     int mFirstWritten = 0;  ///< VDB frames before this one are simulated, not written
     std::vector<std::string> mRows;
     FrameStats mLast;

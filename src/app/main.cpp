@@ -127,15 +127,15 @@ std::string unknownCommandMessage(CLI::App& cli, const std::string& word) {
     return "unknown command '" + word + "' (commands: " + all + "; see dgv --help)";
 }
 
-const char* kExitCodes =
-    "Exit codes: 0 success, 1 run-time failure (I/O, GL), 2 bad input or usage, 130 interrupted.";
+const char* kExitCodes = "Exit codes: 0 success, 1 run-time failure (I/O, GL), 2 bad input or usage, 130 interrupted.";
 
 }  // namespace
 
 int main(int argc, char** argv) {
     using namespace dgv;
-    CLI::App cli{"dgv: deforming geometric volumes, rendered offscreen.\n"
-                 "With no subcommand, renders the default scene (scenes/default.json) into out/."};
+    CLI::App cli{
+        "dgv: deforming geometric volumes, rendered offscreen.\n"
+        "With no subcommand, renders the default scene (scenes/default.json) into out/."};
     cli.footer(kExitCodes);
     cli.set_version_flag("--version", std::string("dgv ") + DGV_VERSION_STRING);
     int threads = 0;
@@ -155,8 +155,9 @@ int main(int argc, char** argv) {
     cRender->add_option("scene", render.scene, "Scene file (JSON, see scenes/README.md)")->required();
     cRender->add_option("--frames", render.frames, "Frame range A-B (or one frame N), within the scene's range");
     cRender->add_option("--out", render.outDir, "Output folder (default: the scene's output.dir)");
-    cRender->add_option("--mesh", render.mesh,
-                        "Also write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply)")
+    cRender
+        ->add_option("--mesh", render.mesh,
+                     "Also write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply)")
         ->check(CLI::IsMember({"ply", "obj"}));
     cRender->add_option("--width", render.width, "Image width in pixels")->check(CLI::Range(16, 16384));
     cRender->add_option("--height", render.height, "Image height in pixels")->check(CLI::Range(16, 16384));
@@ -164,7 +165,8 @@ int main(int argc, char** argv) {
     cRender->add_option("--gl-backend", render.glBackend, "OpenGL context: auto (OSMesa, else EGL), egl or osmesa")
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}));
     cRender->add_flag("--contact-sheet", render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
-    cRender->add_flag("--movie", render.movie, "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");
+    cRender->add_flag("--movie", render.movie,
+                      "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");
     cRender->add_flag("--resume", render.resume,
                       "Keep frames already complete on disk (a readable PNG of that frame); render the rest, "
                       "the simulation restarting from its last valid state checkpoint");
@@ -174,7 +176,8 @@ int main(int argc, char** argv) {
     cRender->footer(kExitCodes);
 
     app::SimulateOptions simulate;
-    auto* cSim = cli.add_subcommand("simulate", "Simulate a scene: <out>/stats.csv, and with --vdb the VDB cache <out>/vdb/<name>.####.vdb");
+    auto* cSim = cli.add_subcommand(
+        "simulate", "Simulate a scene: <out>/stats.csv, and with --vdb the VDB cache <out>/vdb/<name>.####.vdb");
     cSim->add_option("scene", simulate.scene, "Scene file (JSON, see scenes/README.md)")->required();
     cSim->add_option("--frames", simulate.frames, "Last frame N, or A-B (frames before A are simulated, not written)");
     cSim->add_option("--out", simulate.outDir, "Output folder (default: the scene's output.dir)");
@@ -190,18 +193,23 @@ int main(int argc, char** argv) {
     auto* cGln = cli.add_subcommand("gln", "Gauss linking number of two closed curves");
     cGln->add_option("curve_a", gln.curveA, "First closed curve: one 'x y z' vertex per line")->required();
     cGln->add_option("curve_b", gln.curveB, "Second closed curve")->required();
-    cGln->add_option("--method", gln.method, "exact or seed")->capture_default_str()
+    cGln->add_option("--method", gln.method, "exact or seed")
+        ->capture_default_str()
         ->check(CLI::IsMember({"exact", "seed"}));
-    cGln->add_option("--tolerance", gln.tolerance, "Seed method's sampling tolerance")->capture_default_str()
+    cGln->add_option("--tolerance", gln.tolerance, "Seed method's sampling tolerance")
+        ->capture_default_str()
         ->check(kPositive);
 
     app::ImgdiffOptions diff;
-    auto* cDiff = cli.add_subcommand("imgdiff", "Compare two images by the golden-image rule; exit 0 if they match, 1 if not");
+    auto* cDiff =
+        cli.add_subcommand("imgdiff", "Compare two images by the golden-image rule; exit 0 if they match, 1 if not");
     cDiff->add_option("reference", diff.reference, "Reference PNG")->required();
     cDiff->add_option("candidate", diff.candidate, "Candidate PNG")->required();
-    cDiff->add_option("--threshold", diff.threshold, "Per-pixel tolerance in 8-bit code values (max over channels)")->capture_default_str()
+    cDiff->add_option("--threshold", diff.threshold, "Per-pixel tolerance in 8-bit code values (max over channels)")
+        ->capture_default_str()
         ->check(CLI::Range(0.0, 255.0));
-    cDiff->add_option("--max-fraction", diff.maxFraction, "Fraction of pixels allowed over the threshold")->capture_default_str()
+    cDiff->add_option("--max-fraction", diff.maxFraction, "Fraction of pixels allowed over the threshold")
+        ->capture_default_str()
         ->check(CLI::Range(0.0, 1.0));
     cDiff->add_option("--hard", diff.hard, "Fail if any pixel differs by more than this (default off)")
         ->check(CLI::Range(0.0, 255.0));
@@ -211,22 +219,27 @@ int main(int argc, char** argv) {
     auto* cInfo = cli.add_subcommand("info", "What import and voxelisation make of a mesh");
     cInfo->add_option("mesh", info.mesh, "Mesh file (any format assimp reads)")->required();
     cInfo->add_option("--mesh-name", info.meshName, "Only the mesh or node of this name");
-    auto* oSize = cInfo->add_option("--voxel-size", info.voxelSize, "Voxel size in world units")
-                      ->check(kPositive);
-    auto* oRes = cInfo->add_option("--resolution", info.resolution, "Lattice points along the longest side (default 64)")
-                     ->check(CLI::Range(2, 2048));
+    auto* oSize = cInfo->add_option("--voxel-size", info.voxelSize, "Voxel size in world units")->check(kPositive);
+    auto* oRes =
+        cInfo->add_option("--resolution", info.resolution, "Lattice points along the longest side (default 64)")
+            ->check(CLI::Range(2, 2048));
     oSize->excludes(oRes);
 
     app::BenchCommandOptions bench;
     auto* cBench = cli.add_subcommand("bench", "Benchmarks; print 'name: value unit' lines");
-    cBench->add_option("names", bench.names, "geometry, voxelise, render, gln, reconstruct, volume, vdb, step, reparametrise, contact (default: all)");
-    cBench->add_option("--repeats", bench.repeats, "Timed repetitions")->capture_default_str()->check(CLI::Range(1, 100));
+    cBench->add_option(
+        "names", bench.names,
+        "geometry, voxelise, render, gln, reconstruct, volume, vdb, step, reparametrise, contact (default: all)");
+    cBench->add_option("--repeats", bench.repeats, "Timed repetitions")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 100));
     cBench->add_flag("--quick", bench.quick, "Small problem sizes");
 
     app::FarmOptions farm;
     auto* cFarm = cli.add_subcommand("farm", "Run a shot on a Slurm cluster: submit, status, resubmit (docs/farm.md)");
     cFarm->require_subcommand(1, 1);
-    auto* cFarmSubmit = cFarm->add_subcommand("submit", "Write the shot's Slurm batch scripts into the output folder and sbatch them");
+    auto* cFarmSubmit =
+        cFarm->add_subcommand("submit", "Write the shot's Slurm batch scripts into the output folder and sbatch them");
     cFarmSubmit->add_option("scene", farm.scene, "Scene file (JSON, see scenes/README.md)")->required();
     cFarmSubmit->add_option("--chunk", farm.chunk, "Frames per render task")->required();
     cFarmSubmit->add_option("--partition", farm.partition, "Slurm partition (default: the cluster's)");

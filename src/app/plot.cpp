@@ -44,8 +44,8 @@ constexpr Glyph kFont[] = {
     {'<', {0x02, 0x04, 0x08, 0x10, 0x08, 0x04, 0x02}}, {'>', {0x08, 0x04, 0x02, 0x01, 0x02, 0x04, 0x08}},
     {'|', {0x04, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}}, {'\'', {0x04, 0x04, 0x08, 0x00, 0x00, 0x00, 0x00}},
 };
-constexpr int kScale = 2;                       // font pixels per glyph pixel
-constexpr int kAdvance = 6 * kScale;            // glyph width + 1 column of spacing
+constexpr int kScale = 2;             // font pixels per glyph pixel
+constexpr int kAdvance = 6 * kScale;  // glyph width + 1 column of spacing
 constexpr int kTextHeight = 7 * kScale;
 
 const Glyph* glyphFor(char c) {
@@ -98,8 +98,10 @@ struct Canvas {
                     for (int a = 0; a < kScale; ++a)
                         for (int b = 0; b < kScale; ++b) {
                             const int gx = static_cast<int>(i) * kAdvance + col * kScale + a, gy = r * kScale + b;
-                            if (vertical) put(x + gy, y - gx, c);
-                            else put(x + gx, y + gy, c);
+                            if (vertical)
+                                put(x + gy, y - gx, c);
+                            else
+                                put(x + gx, y + gy, c);
                         }
                 }
         }
@@ -197,8 +199,9 @@ Image drawPlot(const PlotSpec& spec) {
             const double X = px(s.x[i]), Y = py(std::clamp(s.y[i], y0, y1));
             if (s.lines && have) cv.line(lx, ly, X, Y, s.color, s.width);
             const int mk = std::max(2, s.width / 2 + 1);
-            if (s.markers) cv.rect(static_cast<int>(std::lround(X)) - mk, static_cast<int>(std::lround(Y)) - mk,
-                                   static_cast<int>(std::lround(X)) + mk, static_cast<int>(std::lround(Y)) + mk, s.color);
+            if (s.markers)
+                cv.rect(static_cast<int>(std::lround(X)) - mk, static_cast<int>(std::lround(Y)) - mk,
+                        static_cast<int>(std::lround(X)) + mk, static_cast<int>(std::lround(Y)) + mk, s.color);
             lx = X, ly = Y, have = true;
         }
     }
@@ -214,8 +217,10 @@ Image drawPlot(const PlotSpec& spec) {
         // The corner of the plot area that hides the fewest data points.
         int lx0 = right - lw - 10, ly0 = top + 10;
         std::size_t fewest = std::numeric_limits<std::size_t>::max();
-        for (const auto& [cx, cy] : {std::pair<int, int>{right - lw - 10, top + 10}, {left + 10, top + 10},
-                                     {right - lw - 10, bottom - lh - 10}, {left + 10, bottom - lh - 10}}) {
+        for (const auto& [cx, cy] : {std::pair<int, int>{right - lw - 10, top + 10},
+                                     {left + 10, top + 10},
+                                     {right - lw - 10, bottom - lh - 10},
+                                     {left + 10, bottom - lh - 10}}) {
             std::size_t hidden = 0;
             for (const PlotSeries& s : spec.series)
                 for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {

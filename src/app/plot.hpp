@@ -16,11 +16,11 @@ namespace dgv::app {
 
 struct PlotSeries {
     std::string label;
-    std::vector<double> x, y;       ///< same length; a NaN in either breaks the line there
-    Vec3 color = Vec3(0, 0, 0);     ///< sRGB in [0, 1]
-    bool lines = true;              ///< join consecutive points
-    bool markers = false;           ///< a small square at each point
-    int width = 2;                  ///< line width in pixels (markers grow with it)
+    std::vector<double> x, y;    ///< same length; a NaN in either breaks the line there
+    Vec3 color = Vec3(0, 0, 0);  ///< sRGB in [0, 1]
+    bool lines = true;           ///< join consecutive points
+    bool markers = false;        ///< a small square at each point
+    int width = 2;               ///< line width in pixels (markers grow with it)
 };
 
 struct PlotSpec {

@@ -68,8 +68,8 @@ void checkOutputFolder(const std::string& dir, const std::string& input, const s
     }
 }
 
-bool frameIsComplete(const std::string& path, int frame, int width, int height, const std::string& key,
-                     Image* image, bool anyRenderer) {
+bool frameIsComplete(const std::string& path, int frame, int width, int height, const std::string& key, Image* image,
+                     bool anyRenderer) {
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) return false;
     std::vector<std::pair<std::string, std::string>> text;

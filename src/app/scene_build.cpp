@@ -14,10 +14,18 @@ TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, in
     if (desc.isPrimitive) {
         const PrimitiveDesc& p = desc.primitive;
         switch (p.type) {
-            case PrimitiveType::Sphere: mesh = makeSphere(p.radius); break;
-            case PrimitiveType::Box: mesh = makeBox(p.size, 8); break;
-            case PrimitiveType::Torus: mesh = makeTorus(p.majorRadius, p.minorRadius); break;
-            case PrimitiveType::Capsule: mesh = makeCapsule(p.radius, p.height); break;
+            case PrimitiveType::Sphere:
+                mesh = makeSphere(p.radius);
+                break;
+            case PrimitiveType::Box:
+                mesh = makeBox(p.size, 8);
+                break;
+            case PrimitiveType::Torus:
+                mesh = makeTorus(p.majorRadius, p.minorRadius);
+                break;
+            case PrimitiveType::Capsule:
+                mesh = makeCapsule(p.radius, p.height);
+                break;
         }
     } else {
         MeshImportOptions opts;
@@ -66,8 +74,8 @@ BuiltObject buildObject(const SceneDesc& scene, int index) {
         for (int a = 0; a < 3; ++a)
             if (!(size[a] > 1e-9 * largest))
                 throw InputError(scene.path, "objects[" + std::to_string(index) + "]",
-                                 "the mesh of \"" + desc.name + "\" is flat (its size along " + std::string(1, "xyz"[a]) +
-                                     " is 0), so it bounds no volume; give it a thickness");
+                                 "the mesh of \"" + desc.name + "\" is flat (its size along " +
+                                     std::string(1, "xyz"[a]) + " is 0), so it bounds no volume; give it a thickness");
     }
     try {
         obj.lattice = voxelise(obj.restMesh, desc.voxel, &obj.voxelReport);
@@ -92,8 +100,8 @@ std::string describe(const BuiltObject& o) {
     std::snprintf(buf, sizeof buf,
                   "object '%s': %zu triangles%s, lattice %dx%dx%d with %lld material points "
                   "(h = %.4g; %lld loose voxels in no complete cell dropped), %d component%s",
-                  o.name.c_str(), o.meshReport.triangles, o.meshReport.closed ? " (closed)" : " (open)",
-                  v.dims.x(), v.dims.y(), v.dims.z(), static_cast<long long>(o.lattice.size()), v.spacing,
+                  o.name.c_str(), o.meshReport.triangles, o.meshReport.closed ? " (closed)" : " (open)", v.dims.x(),
+                  v.dims.y(), v.dims.z(), static_cast<long long>(o.lattice.size()), v.spacing,
                   static_cast<long long>(o.loosePoints), o.lattice.components, o.lattice.components == 1 ? "" : "s");
     return buf;
 }

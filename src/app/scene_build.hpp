@@ -17,11 +17,11 @@ namespace dgv::app {
 
 struct BuiltObject {
     std::string name;
-    TriangleMesh restMesh;      ///< world space, at rest
+    TriangleMesh restMesh;  ///< world space, at rest
     MeshReport meshReport;
     Lattice lattice;
     VoxeliseReport voxelReport;
-    Index loosePoints = 0;      ///< voxels dropped from the lattice: in no complete cell (withoutLoosePoints)
+    Index loosePoints = 0;  ///< voxels dropped from the lattice: in no complete cell (withoutLoosePoints)
     GeometricState state;
     MeshEmbedding embedding;
     Vec3 color;

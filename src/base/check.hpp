@@ -11,25 +11,23 @@ namespace dgv::detail {
 [[noreturn]] void checkFailed(const char* file, int line, const std::string& message);
 
 template <typename A, typename B>
-[[noreturn]] void checkOpFailed(const char* file, int line, const char* expr, const A& a,
-                                const B& b) {
+[[noreturn]] void checkOpFailed(const char* file, int line, const char* expr, const A& a, const B& b) {
     std::ostringstream os;
     os << "check failed: " << expr << " with lhs = " << a << ", rhs = " << b;
     checkFailed(file, line, os.str());
 }
 }  // namespace dgv::detail
 
-#define DGV_CHECK(cond)                                                              \
-    do {                                                                             \
+#define DGV_CHECK(cond)                                                                      \
+    do {                                                                                     \
         if (!(cond)) ::dgv::detail::checkFailed(__FILE__, __LINE__, "check failed: " #cond); \
     } while (false)
 
-#define DGV_CHECK_OP_(a, b, op)                                                          \
-    do {                                                                                 \
-        const auto& dgvA_ = (a);                                                         \
-        const auto& dgvB_ = (b);                                                         \
-        if (!(dgvA_ op dgvB_))                                                           \
-            ::dgv::detail::checkOpFailed(__FILE__, __LINE__, #a " " #op " " #b, dgvA_, dgvB_); \
+#define DGV_CHECK_OP_(a, b, op)                                                                                   \
+    do {                                                                                                          \
+        const auto& dgvA_ = (a);                                                                                  \
+        const auto& dgvB_ = (b);                                                                                  \
+        if (!(dgvA_ op dgvB_)) ::dgv::detail::checkOpFailed(__FILE__, __LINE__, #a " " #op " " #b, dgvA_, dgvB_); \
     } while (false)
 
 #define DGV_CHECK_EQ(a, b) DGV_CHECK_OP_(a, b, ==)

@@ -25,8 +25,7 @@ public:
     const std::string& problem() const { return mWhat; }
 
 private:
-    static std::string compose(const std::string& input, const std::string& where,
-                               const std::string& what) {
+    static std::string compose(const std::string& input, const std::string& where, const std::string& what) {
         std::string s = input;
         if (!where.empty()) s += (s.empty() ? "" : ": ") + where;
         return s + (s.empty() ? "" : ": ") + what;

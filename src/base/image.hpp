@@ -19,9 +19,7 @@ struct Image {
     Image() = default;
     Image(int w, int h) : width(w), height(h), rgba(static_cast<std::size_t>(w) * h * 4, 0) {}
 
-    std::uint16_t* pixel(int x, int y) {
-        return rgba.data() + (static_cast<std::size_t>(y) * width + x) * 4;
-    }
+    std::uint16_t* pixel(int x, int y) { return rgba.data() + (static_cast<std::size_t>(y) * width + x) * 4; }
     const std::uint16_t* pixel(int x, int y) const {
         return rgba.data() + (static_cast<std::size_t>(y) * width + x) * 4;
     }

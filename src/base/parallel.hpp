@@ -30,10 +30,9 @@ void parallelFor(Index n, F&& f, Index grain = kParallelGrain) {
         for (Index i = 0; i < n; ++i) f(i);
         return;
     }
-    tbb::parallel_for(tbb::blocked_range<Index>(0, n, grain),
-                      [&](const tbb::blocked_range<Index>& r) {
-                          for (Index i = r.begin(); i != r.end(); ++i) f(i);
-                      });
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n, grain), [&](const tbb::blocked_range<Index>& r) {
+        for (Index i = r.begin(); i != r.end(); ++i) f(i);
+    });
 }
 
 /// Calls f(begin, end) on consecutive blocks covering [0, n), in parallel.
@@ -58,8 +57,7 @@ void parallelInvoke(F&& f, G&& g) {
 /// blocks of `block` indices are reduced in order by `accumulate(acc, i)` and the per-block
 /// results are combined left to right. Bit-identical for any thread count.
 template <typename T, typename Accumulate, typename Combine>
-T parallelReduce(Index n, const T& identity, Accumulate&& accumulate, Combine&& combine,
-                 Index block = kParallelGrain) {
+T parallelReduce(Index n, const T& identity, Accumulate&& accumulate, Combine&& combine, Index block = kParallelGrain) {
     if (n <= 0) return identity;
     const Index blocks = (n + block - 1) / block;
     std::vector<T> partial(static_cast<std::size_t>(blocks), identity);

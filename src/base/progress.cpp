@@ -49,9 +49,8 @@ void Progress::step(const std::string& detail) {
     double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count();
     double rate = elapsed > 0 ? mDone / elapsed : 0.0;
     double eta = rate > 0 ? (mTotal - mDone) / rate : 0.0;
-    std::fprintf(stderr, "dgv: %s %ld/%ld %s (%.2f/s, ETA %s)%s%s\n", mLabel.c_str(), mDone, mTotal,
-                 mUnit.c_str(), rate, formatDuration(eta).c_str(), detail.empty() ? "" : " ",
-                 detail.c_str());
+    std::fprintf(stderr, "dgv: %s %ld/%ld %s (%.2f/s, ETA %s)%s%s\n", mLabel.c_str(), mDone, mTotal, mUnit.c_str(),
+                 rate, formatDuration(eta).c_str(), detail.empty() ? "" : " ", detail.c_str());
     std::fflush(stderr);
 }
 
@@ -65,8 +64,8 @@ void Progress::draw(bool final) {
     double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count();
     double rate = elapsed > 0 ? mDone / elapsed : 0.0;
     std::string eta = final ? formatDuration(elapsed) : (rate > 0 ? formatDuration((mTotal - mDone) / rate) : "?");
-    std::fprintf(stderr, "\r%s [%s] %ld/%ld %s %.2f/s %s %s\x1b[K", mLabel.c_str(), bar.c_str(),
-                 mDone, mTotal, mUnit.c_str(), rate, final ? "in" : "ETA", eta.c_str());
+    std::fprintf(stderr, "\r%s [%s] %ld/%ld %s %.2f/s %s %s\x1b[K", mLabel.c_str(), bar.c_str(), mDone, mTotal,
+                 mUnit.c_str(), rate, final ? "in" : "ETA", eta.c_str());
     std::fflush(stderr);
 }
 

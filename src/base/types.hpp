@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>  // cross products and rotations are used everywhere; an undeclared
-                            // cross() compiles but fails to link
+                           // cross() compiles but fails to link
 
 #include <cstdint>
 #include <limits>

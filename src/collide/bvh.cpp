@@ -38,8 +38,8 @@ void addTranslated(BvhNode& n, const BvhNode& c) {
     for (int a = 0; a < 3; ++a) n.m1.col(a) += c.m1.col(a) + s[a] * c.m0;
     for (int a = 0; a < 3; ++a)
         for (int b = a; b < 3; ++b)
-            n.m2[momentIndex(a, b)] += c.m2[momentIndex(a, b)] + s[a] * c.m1.col(b) + s[b] * c.m1.col(a) +
-                                       s[a] * s[b] * c.m0;
+            n.m2[momentIndex(a, b)] +=
+                c.m2[momentIndex(a, b)] + s[a] * c.m1.col(b) + s[b] * c.m1.col(a) + s[a] * s[b] * c.m0;
 }
 
 int build(const CurveSoA& s, CurveBvh& t, Index begin, Index end, int leafSize) {
@@ -98,8 +98,8 @@ FarValue farFieldPair(const BvhNode& A, const BvhNode& B) {
     for (int k = 0; k < 3; ++k) {
         for (int l = 0; l < 3; ++l) {
             const int kl = momentIndex(k, l);
-            const Vec3 w = A.m2[kl].cross(B.m0) - A.m1.col(k).cross(B.m1.col(l)) -
-                           A.m1.col(l).cross(B.m1.col(k)) + A.m0.cross(B.m2[kl]);
+            const Vec3 w = A.m2[kl].cross(B.m0) - A.m1.col(k).cross(B.m1.col(l)) - A.m1.col(l).cross(B.m1.col(k)) +
+                           A.m0.cross(B.m2[kl]);
             Real h = -3 * inv5 * (R[l] * w[k] + R[k] * w[l]) + 15 * inv7 * R[k] * R[l] * R.dot(w);
             if (k == l) h -= 3 * inv5 * R.dot(w);
             v += 0.5 * h;

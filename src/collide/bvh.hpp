@@ -22,8 +22,8 @@
 namespace dgv {
 
 struct BvhNode {
-    Index begin = 0, end = 0;  ///< segments [begin, end)
-    int left = -1, right = -1; ///< children (node indices); -1 for a leaf
+    Index begin = 0, end = 0;   ///< segments [begin, end)
+    int left = -1, right = -1;  ///< children (node indices); -1 for a leaf
     Box3 box;
     Vec3 centre = Vec3::Zero();
     Real radius = 0;           ///< max |x − centre| over the node's segments

@@ -41,17 +41,27 @@ inline void st(double* p, const Pack& a) {
     for (int l = 0; l < 4; ++l) p[l] = a.v[l];
 }
 inline Pack set1(double x) { return {{x, x, x, x}}; }
-inline Pack add(const Pack& a, const Pack& b) { return map2(a, b, [](double x, double y) { return x + y; }); }
-inline Pack sub(const Pack& a, const Pack& b) { return map2(a, b, [](double x, double y) { return x - y; }); }
-inline Pack mul(const Pack& a, const Pack& b) { return map2(a, b, [](double x, double y) { return x * y; }); }
-inline Pack dvd(const Pack& a, const Pack& b) { return map2(a, b, [](double x, double y) { return x / y; }); }
+inline Pack add(const Pack& a, const Pack& b) {
+    return map2(a, b, [](double x, double y) { return x + y; });
+}
+inline Pack sub(const Pack& a, const Pack& b) {
+    return map2(a, b, [](double x, double y) { return x - y; });
+}
+inline Pack mul(const Pack& a, const Pack& b) {
+    return map2(a, b, [](double x, double y) { return x * y; });
+}
+inline Pack dvd(const Pack& a, const Pack& b) {
+    return map2(a, b, [](double x, double y) { return x / y; });
+}
 inline Pack sqr(const Pack& a) {
     Pack r;
     for (int l = 0; l < 4; ++l) r.v[l] = std::sqrt(a.v[l]);
     return r;
 }
 // _mm256_max_pd semantics: a > b ? a : b.
-inline Pack mx(const Pack& a, const Pack& b) { return map2(a, b, [](double x, double y) { return x > y ? x : y; }); }
+inline Pack mx(const Pack& a, const Pack& b) {
+    return map2(a, b, [](double x, double y) { return x > y ? x : y; });
+}
 inline Pack bits2(const Pack& a, const Pack& b, std::uint64_t (*f)(std::uint64_t, std::uint64_t)) {
     Pack r;
     for (int l = 0; l < 4; ++l) r.v[l] = fromBits(f(bitsOf(a.v[l]), bitsOf(b.v[l])));
@@ -77,10 +87,18 @@ inline Pack cmp(const Pack& a, const Pack& b, F f) {
     for (int l = 0; l < 4; ++l) r.v[l] = fromBits(f(a.v[l], b.v[l]) ? ~std::uint64_t(0) : 0);
     return r;
 }
-inline Pack ge(const Pack& a, const Pack& b) { return cmp(a, b, [](double x, double y) { return x >= y; }); }
-inline Pack le(const Pack& a, const Pack& b) { return cmp(a, b, [](double x, double y) { return x <= y; }); }
-inline Pack lt(const Pack& a, const Pack& b) { return cmp(a, b, [](double x, double y) { return x < y; }); }
-inline Pack eq(const Pack& a, const Pack& b) { return cmp(a, b, [](double x, double y) { return x == y; }); }
+inline Pack ge(const Pack& a, const Pack& b) {
+    return cmp(a, b, [](double x, double y) { return x >= y; });
+}
+inline Pack le(const Pack& a, const Pack& b) {
+    return cmp(a, b, [](double x, double y) { return x <= y; });
+}
+inline Pack lt(const Pack& a, const Pack& b) {
+    return cmp(a, b, [](double x, double y) { return x < y; });
+}
+inline Pack eq(const Pack& a, const Pack& b) {
+    return cmp(a, b, [](double x, double y) { return x == y; });
+}
 // _mm256_blendv_pd semantics: b where the sign bit of m is set, else a.
 inline Pack blend(const Pack& a, const Pack& b, const Pack& m) {
     Pack r;
@@ -90,8 +108,7 @@ inline Pack blend(const Pack& a, const Pack& b, const Pack& m) {
 // 2^-e for m in [2^e, 2^(e+1)): (0x7FE << 52) − (exponent bits of m), as integers.
 inline Pack normScale(const Pack& m) {
     Pack r;
-    for (int l = 0; l < 4; ++l)
-        r.v[l] = fromBits(0x7FE0000000000000ull - (bitsOf(m.v[l]) & 0x7FF0000000000000ull));
+    for (int l = 0; l < 4; ++l) r.v[l] = fromBits(0x7FE0000000000000ull - (bitsOf(m.v[l]) & 0x7FF0000000000000ull));
     return r;
 }
 
@@ -178,9 +195,12 @@ Real segmentPairSolidAngle(const Vec3& p0, const Vec3& p1, const Vec3& q0, const
     auto v = [](const Vec3& x, const Vec3& y) {
         return std::array<L, 3>{L(x[0]) - L(y[0]), L(x[1]) - L(y[1]), L(x[2]) - L(y[2])};
     };
-    auto dot = [](const std::array<L, 3>& x, const std::array<L, 3>& y) { return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]; };
+    auto dot = [](const std::array<L, 3>& x, const std::array<L, 3>& y) {
+        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    };
     const auto a = v(q0, p0), b = v(q0, p1), c = v(q1, p1), d = v(q1, p0), e1 = v(p1, p0), e2 = v(q1, q0);
-    const std::array<L, 3> k = {e2[1] * e1[2] - e2[2] * e1[1], e2[2] * e1[0] - e2[0] * e1[2], e2[0] * e1[1] - e2[1] * e1[0]};
+    const std::array<L, 3> k = {e2[1] * e1[2] - e2[2] * e1[1], e2[2] * e1[0] - e2[0] * e1[2],
+                                e2[0] * e1[1] - e2[1] * e1[0]};
     const L T = dot(a, k);
     const L na = std::sqrt(dot(a, a)), nb = std::sqrt(dot(b, b)), nc = std::sqrt(dot(c, c)), nd = std::sqrt(dot(d, d));
     const L N1 = na * nb * nc + dot(a, b) * nc + dot(b, c) * na + dot(c, a) * nb;
@@ -249,9 +269,11 @@ GlnSum glnTileCareful(const CurveSoA& A, Index i0, Index i1, const CurveSoA& B, 
                 e2[k] = q1[k] - q0[k];
             }
             auto dot = [](const L* x, const L* y) { return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]; };
-            const L kx = e2[1] * e1[2] - e2[2] * e1[1], ky = e2[2] * e1[0] - e2[0] * e1[2], kz = e2[0] * e1[1] - e2[1] * e1[0];
+            const L kx = e2[1] * e1[2] - e2[2] * e1[1], ky = e2[2] * e1[0] - e2[0] * e1[2],
+                    kz = e2[0] * e1[1] - e2[1] * e1[0];
             const L T = a[0] * kx + a[1] * ky + a[2] * kz;
-            const L na = std::sqrt(dot(a, a)), nb = std::sqrt(dot(b, b)), nc = std::sqrt(dot(c, c)), nd = std::sqrt(dot(d, d));
+            const L na = std::sqrt(dot(a, a)), nb = std::sqrt(dot(b, b)), nc = std::sqrt(dot(c, c)),
+                    nd = std::sqrt(dot(d, d));
             const L len2 = std::sqrt(dot(e2, e2));
             const L abc = na * nb * nc, acd = na * nc * nd;
             const L N1 = abc + dot(a, b) * nc + dot(b, c) * na + dot(c, a) * nb;
@@ -269,7 +291,8 @@ GlnSum glnTileCareful(const CurveSoA& A, Index i0, Index i1, const CurveSoA& B, 
                 continue;
             }
             const L aT = std::abs(T);
-            const L e = 2 * ((std::abs(N1) * dT + aT * 64 * u * abc) / z1 + (std::abs(N2) * dT + aT * 64 * u * acd) / z2);
+            const L e =
+                2 * ((std::abs(N1) * dT + aT * 64 * u * abc) / z1 + (std::abs(N2) * dT + aT * 64 * u * acd) / z2);
             const L half = std::atan2(T, N1) + std::atan2(T, N2);
             out.halfAngle += static_cast<double>(half);
             out.absHalfAngle += static_cast<double>(std::abs(half));

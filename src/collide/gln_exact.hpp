@@ -29,8 +29,7 @@ using ClosedCurve = std::vector<Vec3>;
 /// |Ω| < 2π for segments that do not intersect; 0 for parallel, coplanar or zero-length
 /// segments that do not touch. Segments that intersect (T = 0 with N1 ≤ 0 or N2 ≤ 0) return 0
 /// and set *intersect (if given).
-Real segmentPairSolidAngle(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1,
-                           bool* intersect = nullptr);
+Real segmentPairSolidAngle(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, bool* intersect = nullptr);
 
 /// Vertices of a closed curve as structure of arrays, with the first vertex repeated at the end
 /// (index n), so that segment i runs from vertex i to vertex i + 1 for i in [0, n).
@@ -50,12 +49,12 @@ Real unitScale(const ClosedCurve& a, const ClosedCurve& b);
 
 /// A partial sum of Ω/2 over segment pairs.
 struct GlnSum {
-    double halfAngle = 0;     ///< Σ Ω_ij / 2 (radians); lk = halfAngle / 2π
-    double bound = 0;         ///< rigorous bound on |computed − exact| of halfAngle, radians
-    double absHalfAngle = 0;  ///< Σ |partial sums| combined (for the summation error bound)
-    Index pairs = 0;          ///< segment pairs evaluated
-    Index intersections = 0;  ///< pairs with T = 0 and N ≤ 0: the curves touch there
-    Index illConditioned = 0; ///< pairs too close to touching for double precision (bound = π each)
+    double halfAngle = 0;      ///< Σ Ω_ij / 2 (radians); lk = halfAngle / 2π
+    double bound = 0;          ///< rigorous bound on |computed − exact| of halfAngle, radians
+    double absHalfAngle = 0;   ///< Σ |partial sums| combined (for the summation error bound)
+    Index pairs = 0;           ///< segment pairs evaluated
+    Index intersections = 0;   ///< pairs with T = 0 and N ≤ 0: the curves touch there
+    Index illConditioned = 0;  ///< pairs too close to touching for double precision (bound = π each)
 
     GlnSum& operator+=(const GlnSum& o);
 };
@@ -83,8 +82,8 @@ GlnSum glnDirectSum(const CurveSoA& a, const CurveSoA& b, GlnKernel kernel = Gln
 /// From a sum to a linking number: lk = halfAngle / 2π and its bound, including the bound of
 /// the summation itself.
 struct LinkValue {
-    double raw = 0;     ///< the computed Σ Ω / 4π
-    double bound = 0;   ///< |raw − exact| ≤ bound (exact: the true double integral of the polylines)
+    double raw = 0;    ///< the computed Σ Ω / 4π
+    double bound = 0;  ///< |raw − exact| ≤ bound (exact: the true double integral of the polylines)
 };
 LinkValue toLinkValue(const GlnSum& sum);
 

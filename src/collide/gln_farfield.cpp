@@ -46,8 +46,12 @@ void traverse(const CurveBvh& ta, const CurveBvh& tb, NodePair start, Real theta
         const NodePair p = stack.back();
         stack.pop_back();
         switch (classify(ta, tb, p, theta)) {
-            case Open::Far: far(p); break;
-            case Open::Near: near.push_back(p); break;
+            case Open::Far:
+                far(p);
+                break;
+            case Open::Near:
+                near.push_back(p);
+                break;
             case Open::Split: {
                 const std::array<NodePair, 2> c = children(ta, tb, p);
                 stack.push_back(c[1]);
@@ -60,7 +64,8 @@ void traverse(const CurveBvh& ta, const CurveBvh& tb, NodePair start, Real theta
 
 void traverse(const CurveBvh& ta, const CurveBvh& tb, Real theta, std::vector<NodePair>& far,
               std::vector<NodePair>& near) {
-    traverse(ta, tb, NodePair{0, 0}, theta, [&](NodePair p) { far.push_back(p); }, near);
+    traverse(
+        ta, tb, NodePair{0, 0}, theta, [&](NodePair p) { far.push_back(p); }, near);
 }
 
 /// The exact sum over the near leaf pairs near[from, near.size()), in parallel (deterministic).
@@ -117,8 +122,8 @@ bool certify(double raw, double bound, long long& k) {
 
 }  // namespace
 
-FarFieldSum glnFarFieldSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb,
-                           Real theta, GlnKernel kernel, double maxFarBound) {
+FarFieldSum glnFarFieldSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb, Real theta,
+                           GlnKernel kernel, double maxFarBound) {
     DGV_CHECK(theta > 0 && theta < 1);
     std::vector<NodePair> far, near;
     traverse(ta, tb, theta, far, near);
@@ -139,9 +144,9 @@ FarFieldSum glnFarFieldSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
     return out;
 }
 
-FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb,
-                           Real theta, double budget, const std::function<bool(const FarFieldSum&)>& done,
-                           GlnKernel kernel, int maxRounds) {
+FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb, Real theta,
+                           double budget, const std::function<bool(const FarFieldSum&)>& done, GlnKernel kernel,
+                           int maxRounds) {
     DGV_CHECK(theta > 0 && theta < 1);
     DGV_CHECK(budget > 0);
     struct Task {  // a node pair to traverse, and the opening ratio to traverse it at
@@ -162,17 +167,24 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
         const Index blocks = std::min<Index>(n, 512);
         std::vector<std::vector<Far>> fars(static_cast<std::size_t>(blocks));
         std::vector<std::vector<NodePair>> nears(static_cast<std::size_t>(blocks));
-        parallelFor(blocks, [&](Index k) {
-            std::vector<Far>& f = fars[static_cast<std::size_t>(k)];
-            std::vector<NodePair>& e = nears[static_cast<std::size_t>(k)];
-            for (Index t = k * n / blocks; t < (k + 1) * n / blocks; ++t) {
-                const Task& task = tasks[static_cast<std::size_t>(t)];
-                traverse(ta, tb, task.pair, task.theta, [&](NodePair p) {
-                    f.push_back({{p, task.theta},
-                                 farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)], tb.nodes[static_cast<std::size_t>(p.b)])});
-                }, e);
-            }
-        }, 1);
+        parallelFor(
+            blocks,
+            [&](Index k) {
+                std::vector<Far>& f = fars[static_cast<std::size_t>(k)];
+                std::vector<NodePair>& e = nears[static_cast<std::size_t>(k)];
+                for (Index t = k * n / blocks; t < (k + 1) * n / blocks; ++t) {
+                    const Task& task = tasks[static_cast<std::size_t>(t)];
+                    traverse(
+                        ta, tb, task.pair, task.theta,
+                        [&](NodePair p) {
+                            f.push_back({{p, task.theta},
+                                         farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)],
+                                                      tb.nodes[static_cast<std::size_t>(p.b)])});
+                        },
+                        e);
+                }
+            },
+            1);
         for (std::size_t k = 0; k < fars.size(); ++k) {
             far.insert(far.end(), fars[k].begin(), fars[k].end());
             near.insert(near.end(), nears[k].begin(), nears[k].end());
@@ -234,8 +246,10 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
         kept.reserve(far.size());
         std::vector<Task> opened;
         for (const Far& f : far) {
-            if (f.v.bound > share) opened.push_back({f.at.pair, Real(0.5) * f.at.theta});
-            else kept.push_back(f);
+            if (f.v.bound > share)
+                opened.push_back({f.at.pair, Real(0.5) * f.at.theta});
+            else
+                kept.push_back(f);
         }
         far = std::move(kept);
         expand(opened);
@@ -265,7 +279,8 @@ GlnResult linkingNumber(const ClosedCurve& ca, const ClosedCurve& cb, const GlnS
     if (!direct) {
         // The two hierarchies are independent: one on each core.
         std::array<CurveBvh, 2> trees;
-        parallelFor(2, [&](Index i) { trees[static_cast<std::size_t>(i)] = buildCurveBvh(i == 0 ? a : b, st.leafSize); }, 1);
+        parallelFor(
+            2, [&](Index i) { trees[static_cast<std::size_t>(i)] = buildCurveBvh(i == 0 ? a : b, st.leafSize); }, 1);
         const CurveBvh& ta = trees[0];
         const CurveBvh& tb = trees[1];
         // The result of a far-field sum, with its method's name.
@@ -285,8 +300,8 @@ GlnResult linkingNumber(const ClosedCurve& ca, const ClosedCurve& cb, const GlnS
             auto accept = [&](const FarFieldSum& f) {
                 ++r.passes;
                 char m[96];
-                std::snprintf(m, sizeof m, "adaptive far field (theta = %g to %g, %d rounds)", st.theta, f.smallestTheta,
-                              f.rounds);
+                std::snprintf(m, sizeof m, "adaptive far field (theta = %g to %g, %d rounds)", st.theta,
+                              f.smallestTheta, f.rounds);
                 record(f, f.smallestTheta, m);
                 if (r.intersections > 0) r.status = GlnStatus::Intersect;
                 decided = r.intersections > 0 || certify(r.raw, r.bound, r.linking);
@@ -322,8 +337,10 @@ GlnResult linkingNumber(const ClosedCurve& ca, const ClosedCurve& cb, const GlnS
     r.intersections = s.intersections;
     r.theta = 0;
     r.method = "direct";
-    if (r.intersections > 0) r.status = GlnStatus::Intersect;
-    else if (!certify(r.raw, r.bound, r.linking)) r.status = GlnStatus::Uncertain;
+    if (r.intersections > 0)
+        r.status = GlnStatus::Intersect;
+    else if (!certify(r.raw, r.bound, r.linking))
+        r.status = GlnStatus::Uncertain;
     return r;
 }
 

@@ -27,7 +27,7 @@ Vec3 restNormal(const Lattice& lat, Index p) {
                 if (lat.pointAt(v) != kNoPoint) s -= Vec3(i, j, k);
             }
     if (s.norm() < 1e-9) {
-        static const Vec3i dirs[6] = {Vec3i(-1, 0, 0), Vec3i(1, 0, 0), Vec3i(0, -1, 0),
+        static const Vec3i dirs[6] = {Vec3i(-1, 0, 0), Vec3i(1, 0, 0),  Vec3i(0, -1, 0),
                                       Vec3i(0, 1, 0),  Vec3i(0, 0, -1), Vec3i(0, 0, 1)};
         for (int d = 0; d < 6; ++d)
             if (lat.neighbours[at(p)][static_cast<std::size_t>(d)] == kNoPoint) s += dirs[d].cast<Real>();
@@ -193,8 +193,7 @@ GlnNetwork::GlnNetwork(const Lattice& lat, const GlnNetworkSettings& st) : mLat(
     std::vector<unsigned char> boundary(at(n), 0);
     for (Index p : bpoints) boundary[at(p)] = 1;
     std::vector<Vec3> normal(bpoints.size());
-    parallelFor(static_cast<Index>(bpoints.size()),
-                [&](Index k) { normal[at(k)] = restNormal(lat, bpoints[at(k)]); });
+    parallelFor(static_cast<Index>(bpoints.size()), [&](Index k) { normal[at(k)] = restNormal(lat, bpoints[at(k)]); });
 
     // Fine rings: one boundary neighbour per 45° sector of the rest tangent plane, the one
     // closest to the plane (then the nearer one).
@@ -382,8 +381,7 @@ ContactSetReport GlnNetwork::contactSet(const std::vector<Vec3>& x, const Signed
     std::vector<unsigned char> candidate;  // fine rings to evaluate
     if (mSet.coarseToFine) {
         std::vector<RingResult> cr(mCoarse.size());
-        parallelFor(static_cast<Index>(mCoarse.size()),
-                    [&](Index k) { evaluate(coarseCurve(at(k), x), cr[at(k)]); });
+        parallelFor(static_cast<Index>(mCoarse.size()), [&](Index k) { evaluate(coarseCurve(at(k), x), cr[at(k)]); });
         // eq 91 for every unlinked coarse ring, then eq 90 for every linked one
         std::vector<unsigned char> inR(x.size(), 0);
         for (std::size_t k = 0; k < mCoarse.size(); ++k)

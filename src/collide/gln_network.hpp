@@ -59,22 +59,22 @@ struct GlnNetworkSettings {
 
 /// One step's figures of a contact-set evaluation.
 struct ContactSetReport {
-    Index colliderLoops = 0;    ///< needle loops laid
-    Index coarseRings = 0;      ///< coarse rings evaluated
-    Index coarseLinked = 0;     ///< of which linked
-    Index fineRings = 0;        ///< fine rings evaluated
-    Index candidatePairs = 0;   ///< ring–loop pairs whose boxes overlap (evaluated exactly)
-    Index linkedPairs = 0;      ///< |lk| >= 1
-    Index undecidedPairs = 0;   ///< touching or uncertain (counted as linked)
-    Index contacts = 0;         ///< |R|
+    Index colliderLoops = 0;   ///< needle loops laid
+    Index coarseRings = 0;     ///< coarse rings evaluated
+    Index coarseLinked = 0;    ///< of which linked
+    Index fineRings = 0;       ///< fine rings evaluated
+    Index candidatePairs = 0;  ///< ring–loop pairs whose boxes overlap (evaluated exactly)
+    Index linkedPairs = 0;     ///< |lk| >= 1
+    Index undecidedPairs = 0;  ///< touching or uncertain (counted as linked)
+    Index contacts = 0;        ///< |R|
     ContactSetReport& operator+=(const ContactSetReport& o);
 };
 
 /// A ring: the lattice points (and, for fine rings, the centre) its vertices are made of.
 struct NetworkRing {
-    Index centre = 0;                 ///< lattice point
-    std::vector<Index> points;        ///< ring vertices' lattice points, in tangent-plane order
-    std::vector<Index> interior;      ///< Interior(γ): lattice points
+    Index centre = 0;             ///< lattice point
+    std::vector<Index> points;    ///< ring vertices' lattice points, in tangent-plane order
+    std::vector<Index> interior;  ///< Interior(γ): lattice points
 };
 
 class GlnNetwork {
@@ -99,8 +99,8 @@ public:
 private:
     const Lattice& mLat;
     GlnNetworkSettings mSet;
-    std::vector<NetworkRing> mFine;    ///< one per boundary point with a ring
-    std::vector<Index> mFineOf;        ///< #P: index into mFine, or −1
+    std::vector<NetworkRing> mFine;  ///< one per boundary point with a ring
+    std::vector<Index> mFineOf;      ///< #P: index into mFine, or −1
     std::vector<NetworkRing> mCoarse;
     Index mWithoutRing = 0;
 };

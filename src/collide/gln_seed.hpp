@@ -27,10 +27,10 @@
 namespace dgv {
 
 struct SeedGln {
-    Real gln = 0;          ///< the listing's value (not rounded)
-    Index chordsA = 0;     ///< chords of the re-sampled curve 1
+    Real gln = 0;       ///< the listing's value (not rounded)
+    Index chordsA = 0;  ///< chords of the re-sampled curve 1
     Index chordsB = 0;
-    Index samples = 0;     ///< Riemann samples per chord pair (along curve 1)
+    Index samples = 0;  ///< Riemann samples per chord pair (along curve 1)
 };
 
 /// The listing's GLN of two closed polylines (>= 3 vertices each). tolerance > 0; large values

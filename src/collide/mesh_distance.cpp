@@ -95,7 +95,8 @@ MeshDistance::MeshDistance(const TriangleMesh& mesh) {
     edges.reserve(3 * t);
     for (std::size_t f = 0; f < t; ++f) {
         const auto& tri = mesh.triangles[f];
-        const Vec3 &a = mesh.vertices[static_cast<std::size_t>(tri[0])], &b = mesh.vertices[static_cast<std::size_t>(tri[1])],
+        const Vec3 &a = mesh.vertices[static_cast<std::size_t>(tri[0])],
+                   &b = mesh.vertices[static_cast<std::size_t>(tri[1])],
                    &c = mesh.vertices[static_cast<std::size_t>(tri[2])];
         const Vec3 n = (b - a).cross(c - a);
         const Real len = n.norm();
@@ -229,7 +230,7 @@ Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient, Real beyond) co
         }
     }
     const Tri& tr = mTriangles[static_cast<std::size_t>(nearestTri)];
-    Vec3 pseudo = nearest.feature == Feature::Face     ? tr.faceNormal
+    Vec3 pseudo = nearest.feature == Feature::Face   ? tr.faceNormal
                   : nearest.feature == Feature::Edge ? tr.edgeNormal[static_cast<std::size_t>(nearest.index)]
                                                      : tr.vertexNormal[static_cast<std::size_t>(nearest.index)];
     if (!(pseudo.squaredNorm() > 0)) pseudo = tr.faceNormal;  // a feature whose faces cancel

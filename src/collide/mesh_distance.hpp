@@ -46,13 +46,13 @@ public:
 private:
     struct Node {
         Box3 box;
-        int first = 0, count = 0;  ///< a leaf's triangles [first, first + count) of mOrder
-        int left = -1, right = -1; ///< children; -1 for a leaf
+        int first = 0, count = 0;   ///< a leaf's triangles [first, first + count) of mOrder
+        int left = -1, right = -1;  ///< children; -1 for a leaf
     };
     struct Tri {
         std::array<Vec3, 3> v;
-        Vec3 faceNormal;                ///< unit (zero for a degenerate triangle)
-        std::array<Vec3, 3> edgeNormal; ///< edge k runs from v[k] to v[(k+1)%3]
+        Vec3 faceNormal;                 ///< unit (zero for a degenerate triangle)
+        std::array<Vec3, 3> edgeNormal;  ///< edge k runs from v[k] to v[(k+1)%3]
         std::array<Vec3, 3> vertexNormal;
     };
     /// Builds the node over order[first, first + count) and its subtree; returns its index.

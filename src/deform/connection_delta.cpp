@@ -14,8 +14,7 @@ namespace {
 inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
 }  // namespace
 
-ConnectionField deformedConnection(const Lattice& lat, const GeometricState& rest,
-                                   const std::vector<Mat3>& M) {
+ConnectionField deformedConnection(const Lattice& lat, const GeometricState& rest, const std::vector<Mat3>& M) {
     const Index n = lat.size();
     DGV_CHECK_EQ(static_cast<Index>(M.size()), n);
     DGV_CHECK_EQ(rest.size(), n);
@@ -56,16 +55,14 @@ ConnectionField deformedConnection(const Lattice& lat, const GeometricState& res
             Mat3 g = Mat3::Zero();
             for (int a = 0; a < 3; ++a)
                 for (int b = 0; b < 3; ++b)
-                    if (present[a] && present[b])
-                        g(a, b) = dualBar.row(e).dot(d[a][static_cast<std::size_t>(b)]);
+                    if (present[a] && present[b]) g(a, b) = dualBar.row(e).dot(d[a][static_cast<std::size_t>(b)]);
             out[static_cast<std::size_t>(e)][i] = Real(0.5) * (g + g.transpose());
         }
     });
     return out;
 }
 
-ConnectionField connectionDelta(const Lattice& lat, const GeometricState& rest,
-                                const std::vector<Mat3>& M) {
+ConnectionField connectionDelta(const Lattice& lat, const GeometricState& rest, const std::vector<Mat3>& M) {
     ConnectionField d = deformedConnection(lat, rest, M);
     parallelFor(lat.size(), [&](Index p) {
         for (std::size_t c = 0; c < 3; ++c) d[c][at(p)] -= rest.christoffel[c][at(p)];

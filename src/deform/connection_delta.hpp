@@ -32,12 +32,10 @@ using PointConnection = std::array<Mat3, 3>;
 /// second-difference stencils: 2nd order inside, 1st order at the boundary, on curved rest
 /// states too (tests/deform/test_connection_delta.cpp; docs/math.md). Axes with no neighbour:
 /// 0, as in geom. Points with |det M| <= 1e-12 (collapsed) get Gammabar = Gamma (no change).
-ConnectionField deformedConnection(const Lattice& lat, const GeometricState& rest,
-                                   const std::vector<Mat3>& M);
+ConnectionField deformedConnection(const Lattice& lat, const GeometricState& rest, const std::vector<Mat3>& M);
 
 /// eq 45: dGamma = Gammabar - Gamma from eps via M (deformedConnection minus rest).
-ConnectionField connectionDelta(const Lattice& lat, const GeometricState& rest,
-                                const std::vector<Mat3>& M);
+ConnectionField connectionDelta(const Lattice& lat, const GeometricState& rest, const std::vector<Mat3>& M);
 
 /// tau_a = sum_b dGamma^b_ab: the trace that decides volume. Along a path with tangent v,
 /// tr dA = tau . v (eq 55), and det M changes by exp(-integral tr dA) (eqs 57, 60-61); for a

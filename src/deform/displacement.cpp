@@ -9,8 +9,7 @@ namespace {
 inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
 }  // namespace
 
-std::vector<Vec3> displacementCoefficients(const GeometricState& rest,
-                                           const std::vector<Vec3>& positions) {
+std::vector<Vec3> displacementCoefficients(const GeometricState& rest, const std::vector<Vec3>& positions) {
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), rest.size());
     std::vector<Vec3> eps(positions.size());
     parallelFor(rest.size(), [&](Index p) {
@@ -32,8 +31,7 @@ std::vector<Vec3> displacedPositions(const GeometricState& rest, const std::vect
     return x;
 }
 
-bool latticeDerivative(const Lattice& lat, const std::vector<Vec3>& field, Index p, int axis,
-                       Vec3& derivative) {
+bool latticeDerivative(const Lattice& lat, const std::vector<Vec3>& field, Index p, int axis, Vec3& derivative) {
     const std::array<Index, 6>& nb = lat.neighbours[at(p)];
     const Index lo = nb[static_cast<std::size_t>(2 * axis)];
     const Index hi = nb[static_cast<std::size_t>(2 * axis + 1)];
@@ -58,8 +56,7 @@ bool latticeDerivative(const Lattice& lat, const std::vector<Vec3>& field, Index
     return true;
 }
 
-std::vector<Mat3> deformationMatrices(const Lattice& lat, const GeometricState& rest,
-                                      const std::vector<Vec3>& eps) {
+std::vector<Mat3> deformationMatrices(const Lattice& lat, const GeometricState& rest, const std::vector<Vec3>& eps) {
     DGV_CHECK_EQ(rest.size(), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(eps.size()), lat.size());
     // World displacement dx = sum_b eps^b x_b; eps^c_{;a} = x^c . d(dx)/du_a (eq 10 read from
@@ -68,8 +65,7 @@ std::vector<Mat3> deformationMatrices(const Lattice& lat, const GeometricState& 
     std::vector<Vec3> dx(eps.size());
     parallelFor(lat.size(), [&](Index p) {
         const std::size_t i = at(p);
-        dx[i] = eps[i][0] * rest.tangent[0][i] + eps[i][1] * rest.tangent[1][i] +
-                eps[i][2] * rest.tangent[2][i];
+        dx[i] = eps[i][0] * rest.tangent[0][i] + eps[i][1] * rest.tangent[1][i] + eps[i][2] * rest.tangent[2][i];
     });
     std::vector<Mat3> M(eps.size());
     parallelFor(lat.size(), [&](Index p) {

@@ -30,8 +30,7 @@ namespace dgv {
 /// eq 36 inverted: eps^a = x^a . (X - x), exact (the rest duals span space).
 /// @param rest       geometric state of the rest (reference) configuration
 /// @param positions  #P deformed positions X, world units
-std::vector<Vec3> displacementCoefficients(const GeometricState& rest,
-                                           const std::vector<Vec3>& positions);
+std::vector<Vec3> displacementCoefficients(const GeometricState& rest, const std::vector<Vec3>& positions);
 
 /// eqs 35-36: X = x + sum_a eps^a x_a (world units), #P.
 std::vector<Vec3> displacedPositions(const GeometricState& rest, const std::vector<Vec3>& eps);
@@ -40,14 +39,12 @@ std::vector<Vec3> displacedPositions(const GeometricState& rest, const std::vect
 /// rest frames). Exact for affine maps of any rest state; X_a = sum_c M(a, c) x_c (the tangent
 /// of the displaced positions by geom's stencil) to round-off at every point whose three axes
 /// have neighbours. Along an axis with no neighbour, eps_{;a} = 0 (row a of M is e_a). #P.
-std::vector<Mat3> deformationMatrices(const Lattice& lat, const GeometricState& rest,
-                                      const std::vector<Vec3>& eps);
+std::vector<Mat3> deformationMatrices(const Lattice& lat, const GeometricState& rest, const std::vector<Vec3>& eps);
 
 /// d field / du_axis at point p with the tangent stencil of geom/geometric_state.hpp (central
 /// where both neighbours exist, else one-sided 2nd order, else 1st order); returns false (and
 /// 0) when p has no neighbour along the axis.
-bool latticeDerivative(const Lattice& lat, const std::vector<Vec3>& field, Index p, int axis,
-                       Vec3& derivative);
+bool latticeDerivative(const Lattice& lat, const std::vector<Vec3>& field, Index p, int axis, Vec3& derivative);
 
 // ---- per-point kernels ----------------------------------------------------------------------
 

@@ -53,12 +53,12 @@ struct ResampledBlock {
 };
 
 struct ResampleReport {
-    Index blocks = 0;       ///< blocks some cell's voxel box meets (the `start` count)
-    Index unresolved = 0;   ///< voxel-cell pairs where inverting the trilinear map failed
-                            ///< (inverted or degenerate cells, candidates far outside a strongly
-                            ///< distorted cell)
-    Index slowSolves = 0;   ///< pairs the batched Newton steps left unconverged (finished one at a time)
-    Index candidates = 0;   ///< voxel-cell pairs solved (the prefilter's survivors)
+    Index blocks = 0;      ///< blocks some cell's voxel box meets (the `start` count)
+    Index unresolved = 0;  ///< voxel-cell pairs where inverting the trilinear map failed
+                           ///< (inverted or degenerate cells, candidates far outside a strongly
+                           ///< distorted cell)
+    Index slowSolves = 0;  ///< pairs the batched Newton steps left unconverged (finished one at a time)
+    Index candidates = 0;  ///< voxel-cell pairs solved (the prefilter's survivors)
     double cellsSeconds = 0, binsSeconds = 0, voxelsSeconds = 0;  ///< per-cell maps, grouping by block, the voxels
 };
 

@@ -212,8 +212,7 @@ Sl3Result projectToSL3Nearest(const Mat3& M) {
             Real gb = 0;
             for (g(b, gb, unused); gb <= 0; g(b, gb, unused)) b *= 4;
         }
-        const Real lambda = bracketedNewton(g, a, b, det < 1 ? a : b,
-                                            Real(1e-15) * s[0] * s[0], r.iterations);
+        const Real lambda = bracketedNewton(g, a, b, det < 1 ? a : b, Real(1e-15) * s[0] * s[0], r.iterations);
         for (int i = 0; i < 3; ++i) {
             Real root = 0;
             t[i] = plusRoot(lambda, i, root);
@@ -235,8 +234,8 @@ Sl3Result projectToSL3Nearest(const Mat3& M) {
             }
             slope = Real(1) / t3 + (2 * t3 - s[2]) * sum;
         };
-        const Real t3 = bracketedNewton(h, Real(0), Real(0.5) * s[2], Real(0.25) * s[2],
-                                        Real(1e-15) * s[2], r.iterations);
+        const Real t3 =
+            bracketedNewton(h, Real(0), Real(0.5) * s[2], Real(0.25) * s[2], Real(1e-15) * s[2], r.iterations);
         const Real lambda = t3 * (t3 - s[2]);
         for (int i = 0; i < 2; ++i) {
             Real root = 0;

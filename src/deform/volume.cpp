@@ -23,13 +23,13 @@ struct CellTopology {
     /// Cells around each point: slot k = the cell whose corner k is the point (or -1).
     std::vector<std::array<Index, 8>> cellsOfPoint;
     // From the active cells:
-    std::vector<unsigned char> active;         ///< #C: the active set the rest was made for
+    std::vector<unsigned char> active;              ///< #C: the active set the rest was made for
     std::array<std::vector<Index>, 8> colourCells;  ///< active cells by parity colour
-    std::vector<Index> rowOf, cellOfRow;       ///< active cell <-> row of the normal matrix
-    SparseRows structure;                      ///< J J^T's pattern (values unset)
-    std::vector<unsigned char> slotOf;         ///< stencil slot of each entry
-    std::vector<int> mirror;                   ///< the entry of the transposed position
-    std::vector<Vec3i> coords;                 ///< lattice coordinate of each row
+    std::vector<Index> rowOf, cellOfRow;            ///< active cell <-> row of the normal matrix
+    SparseRows structure;                           ///< J J^T's pattern (values unset)
+    std::vector<unsigned char> slotOf;              ///< stencil slot of each entry
+    std::vector<int> mirror;                        ///< the entry of the transposed position
+    std::vector<Vec3i> coords;                      ///< lattice coordinate of each row
 };
 
 struct VolumeProjectionCache::Impl {
@@ -75,11 +75,10 @@ inline CentredCell centredCell(const std::array<Vec3, 8>& x) {
     for (std::size_t k = 1; k < 8; ++k) w[k] = x[k] - x[0];
     walshHadamard(w);
     return {Real(0.25) * w[1], Real(0.25) * w[2], Real(0.25) * w[4],
-            Real(0.5) * w[3], Real(0.5) * w[5], Real(0.5) * w[6]};
+            Real(0.5) * w[3],  Real(0.5) * w[5],  Real(0.5) * w[6]};
 }
 
-inline std::array<Vec3, 8> gatherCorners(const LatticeCells& cells, const std::vector<Vec3>& x,
-                                         Index c) {
+inline std::array<Vec3, 8> gatherCorners(const LatticeCells& cells, const std::vector<Vec3>& x, Index c) {
     std::array<Vec3, 8> v;
     const std::array<Index, 8>& ids = cells.corners[at(c)];
     for (std::size_t k = 0; k < 8; ++k) v[k] = x[at(ids[k])];
@@ -170,15 +169,12 @@ std::vector<Real> cellVolumes(const LatticeCells& cells, const std::vector<Vec3>
 
 Real totalVolume(const LatticeCells& cells, const std::vector<Vec3>& positions) {
     return parallelReduce(
-        cells.size(), Real(0),
-        [&](Real& acc, Index c) { acc += hexVolume(gatherCorners(cells, positions, c)); },
+        cells.size(), Real(0), [&](Real& acc, Index c) { acc += hexVolume(gatherCorners(cells, positions, c)); },
         [](Real a, Real b) { return a + b; });
 }
 
-VolumeProjectionReport projectVolumes(const LatticeCells& cells,
-                                      const std::vector<Real>& restVolumes,
-                                      const std::vector<unsigned char>& pinned,
-                                      std::vector<Vec3>& positions,
+VolumeProjectionReport projectVolumes(const LatticeCells& cells, const std::vector<Real>& restVolumes,
+                                      const std::vector<unsigned char>& pinned, std::vector<Vec3>& positions,
                                       const VolumeProjectionSettings& settings) {
     const Index nc = cells.size();
     const Index np = static_cast<Index>(positions.size());
@@ -292,7 +288,9 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
         });
         return parallelReduce(
             nc, Real(0),
-            [&](Real& acc, Index c) { if (active[at(c)]) acc = std::max(acc, std::abs(r[at(c)])); },
+            [&](Real& acc, Index c) {
+                if (active[at(c)]) acc = std::max(acc, std::abs(r[at(c)]));
+            },
             [](Real a, Real b) { return std::max(a, b); });
     };
 
@@ -305,11 +303,17 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
     // The body's total volume error over the constrainable cells (their rest volume is fixed
     // by the pins, as the active flags are).
     const Real activeVolume = parallelReduce(
-        nc, Real(0), [&](Real& acc, Index c) { if (active[at(c)]) acc += restVolumes[at(c)]; },
+        nc, Real(0),
+        [&](Real& acc, Index c) {
+            if (active[at(c)]) acc += restVolumes[at(c)];
+        },
         [](Real a, Real b) { return a + b; });
     auto driftOf = [&] {
         const Real sum = parallelReduce(
-            nc, Real(0), [&](Real& acc, Index c) { if (active[at(c)]) acc += restVolumes[at(c)] * r[at(c)]; },
+            nc, Real(0),
+            [&](Real& acc, Index c) {
+                if (active[at(c)]) acc += restVolumes[at(c)] * r[at(c)];
+            },
             [](Real a, Real b) { return a + b; });
         return activeVolume > 0 ? sum / activeVolume : Real(0);
     };
@@ -447,7 +451,8 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
                     Real sum = 0;
                     for (int k = 0; k < 8; ++k) {
                         const int kd = sharedCorner[s][k];
-                        if (kd >= 0) sum += gr[at(c)][static_cast<std::size_t>(k)].dot(gr[at(d)][static_cast<std::size_t>(kd)]);
+                        if (kd >= 0)
+                            sum += gr[at(c)][static_cast<std::size_t>(k)].dot(gr[at(d)][static_cast<std::size_t>(kd)]);
                     }
                     S.value[static_cast<std::size_t>(e)] = sum;
                     S.value[static_cast<std::size_t>(topo.mirror[static_cast<std::size_t>(e)])] = sum;
@@ -500,8 +505,8 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
                              ? std::max(settings.linearTolerance,
                                         std::min(Real(0.5), kSafety * std::max(err, settings.tolerance / err)))
                              : settings.linearTolerance;
-        const SolveReport lin = conjugateGradients(S, mg, rhs, sol, 1, eta, 0,
-                                                   settings.maxLinearIterations, &workspace);
+        const SolveReport lin =
+            conjugateGradients(S, mg, rhs, sol, 1, eta, 0, settings.maxLinearIterations, &workspace);
         report.linearIterations += lin.iterations;
         parallelFor(nc, [&](Index c) {
             lambda[at(c)] = rowOf[at(c)] >= 0 ? sol[at(rowOf[at(c)])] : Real(0);
@@ -548,8 +553,7 @@ VolumeProjectionReport projectVolumes(const LatticeCells& cells,
     report.maxErrorAfter = err;
     report.driftAfter = drift;
     report.maxMove = parallelReduce(
-        np, Real(0),
-        [&](Real& acc, Index p) { acc = std::max(acc, (positions[at(p)] - start[at(p)]).norm()); },
+        np, Real(0), [&](Real& acc, Index p) { acc = std::max(acc, (positions[at(p)] - start[at(p)]).norm()); },
         [](Real a, Real b) { return std::max(a, b); });
     return report;
 }

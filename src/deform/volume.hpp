@@ -66,8 +66,8 @@ struct VolumeProjectionCache {
 };
 
 struct VolumeProjectionSettings {
-    int maxIterations = 8;           ///< Gauss-Newton iterations
-    Real tolerance = 1e-12;          ///< stop when max_c |V_c / V0_c - 1| <= tolerance
+    int maxIterations = 8;   ///< Gauss-Newton iterations
+    Real tolerance = 1e-12;  ///< stop when max_c |V_c / V0_c - 1| <= tolerance
     /// ... and the body's total volume error |Σ_c (V_c − V0_c)| / Σ_c V0_c (over the
     /// constrainable cells) <= driftTolerance. Cell errors within `tolerance` can share a sign:
     /// a spinning jelly's total drifted to 1.25e-6 with every cell within 1e-5 (docs/math.md,
@@ -120,15 +120,15 @@ constexpr unsigned char kSlides = 2;
 /// Outcome of projectVolumes. Numerical trouble (no convergence) is reported, not thrown.
 struct [[nodiscard]] VolumeProjectionReport {
     bool converged = false;
-    int iterations = 0;          ///< Gauss-Newton iterations taken
-    int linearIterations = 0;    ///< CG iterations, summed over the Gauss-Newton iterations
-    int predicted = 0;           ///< 1 when the caller's predicted multipliers were applied (kept)
-    Real maxErrorBefore = 0;     ///< max_c |V_c / V0_c - 1| on entry, over the constrainable cells
-    Real maxErrorAfter = 0;      ///< ... on return (cells with all 8 corners pinned are left out:
-                                 ///< nothing may move them)
-    Real driftAfter = 0;         ///< Σ_c (V_c − V0_c) / Σ_c V0_c on return, same cells
-    Real maxMove = 0;            ///< largest |x_new - x_old| of a point, world units
-    Index unconstrainable = 0;   ///< cells whose 8 corners are all pinned (left out)
+    int iterations = 0;         ///< Gauss-Newton iterations taken
+    int linearIterations = 0;   ///< CG iterations, summed over the Gauss-Newton iterations
+    int predicted = 0;          ///< 1 when the caller's predicted multipliers were applied (kept)
+    Real maxErrorBefore = 0;    ///< max_c |V_c / V0_c - 1| on entry, over the constrainable cells
+    Real maxErrorAfter = 0;     ///< ... on return (cells with all 8 corners pinned are left out:
+                                ///< nothing may move them)
+    Real driftAfter = 0;        ///< Σ_c (V_c − V0_c) / Σ_c V0_c on return, same cells
+    Real maxMove = 0;           ///< largest |x_new - x_old| of a point, world units
+    Index unconstrainable = 0;  ///< cells whose 8 corners are all pinned (left out)
 };
 
 /// Volume projection: moves the points minimally (least squares, Euclidean) so that every
@@ -147,10 +147,8 @@ struct [[nodiscard]] VolumeProjectionReport {
 /// @param[in]     pinned       #P flags (0 free, 1 fixed, kSlides), or empty
 /// @param[in,out] positions    #P world positions, updated in place
 /// Deterministic for any thread count.
-VolumeProjectionReport projectVolumes(const LatticeCells& cells,
-                                      const std::vector<Real>& restVolumes,
-                                      const std::vector<unsigned char>& pinned,
-                                      std::vector<Vec3>& positions,
+VolumeProjectionReport projectVolumes(const LatticeCells& cells, const std::vector<Real>& restVolumes,
+                                      const std::vector<unsigned char>& pinned, std::vector<Vec3>& positions,
                                       const VolumeProjectionSettings& settings = {});
 
 /// Rebuilds `*settings.cache`'s multigrid from its builtFrom* inputs (a restored checkpoint):

@@ -54,8 +54,8 @@ Mat3 ForceMoments::momentGradient() const {
     return firstMoment * lu.inverse();
 }
 
-ForceMoments forceMoments(const ForceField& field, const std::vector<Real>& masses,
-                          const std::vector<Vec3>& positions, Real frame, bool withGradient) {
+ForceMoments forceMoments(const ForceField& field, const std::vector<Real>& masses, const std::vector<Vec3>& positions,
+                          Real frame, bool withGradient) {
     DGV_CHECK_EQ(masses.size(), positions.size());
     ForceMoments out;
     out.centre = centreOfMass(masses, positions);

@@ -37,13 +37,13 @@ std::vector<Real> pointMasses(const Lattice& lat, Real density, MassRule rule = 
 
 /// Mass-weighted moments of the force over the body, about its centre of mass. ỹ = x − centre.
 struct ForceMoments {
-    Real mass = 0;                      ///< M = Σ m
-    Vec3 centre = Vec3::Zero();         ///< x_Body = Σ m x / M (eq 66)
-    Vec3 meanForce = Vec3::Zero();      ///< ẍ_Body = Σ m F / M (eq 67), m/s²
-    Mat3 meanGradient = Mat3::Zero();   ///< Σ m ∇F / M: the seed's R of eq 68 (filled when asked for), 1/s²
-    Mat3 firstMoment = Mat3::Zero();    ///< Σ m F ỹᵀ / M, m²/s²
-    Mat3 secondMoment = Mat3::Zero();   ///< Σ m ỹ ỹᵀ / M, m² (the mass covariance; the rigid-body
-                                        ///< inertia tensor is tr(S)·1 − S times M)
+    Real mass = 0;                     ///< M = Σ m
+    Vec3 centre = Vec3::Zero();        ///< x_Body = Σ m x / M (eq 66)
+    Vec3 meanForce = Vec3::Zero();     ///< ẍ_Body = Σ m F / M (eq 67), m/s²
+    Mat3 meanGradient = Mat3::Zero();  ///< Σ m ∇F / M: the seed's R of eq 68 (filled when asked for), 1/s²
+    Mat3 firstMoment = Mat3::Zero();   ///< Σ m F ỹᵀ / M, m²/s²
+    Mat3 secondMoment = Mat3::Zero();  ///< Σ m ỹ ỹᵀ / M, m² (the mass covariance; the rigid-body
+                                       ///< inertia tensor is tr(S)·1 − S times M)
 
     /// firstMoment · secondMoment⁻¹: the gradient G of the affine field a + G ỹ that fits F best
     /// in the mass-weighted least-squares sense (a = meanForce). Equals ∇F for a linear field.
@@ -58,8 +58,8 @@ Vec3 centreOfMass(const std::vector<Real>& masses, const std::vector<Vec3>& posi
 /// The moments above at scene frame `frame`; the mean gradient only when `withGradient`.
 /// Two deterministic parallel passes (centre, then moments about it), bit-identical for any
 /// thread count.
-ForceMoments forceMoments(const ForceField& field, const std::vector<Real>& masses,
-                          const std::vector<Vec3>& positions, Real frame, bool withGradient = true);
+ForceMoments forceMoments(const ForceField& field, const std::vector<Real>& masses, const std::vector<Vec3>& positions,
+                          Real frame, bool withGradient = true);
 
 /// The centre of mass moving as one particle (eq 67).
 struct BodyState {

@@ -24,27 +24,27 @@
 namespace dgv {
 
 struct DeformableBodyState {
-    std::vector<Vec3> positions;                 ///< #P x
-    std::vector<Vec3> velocities;                ///< #P v over the last step
+    std::vector<Vec3> positions;                   ///< #P x
+    std::vector<Vec3> velocities;                  ///< #P v over the last step
     std::array<std::vector<Vec3>, 3> tangentPrev;  ///< #P each: the frames before the last step
     bool havePrev = false;
-    std::array<std::vector<Mat3>, 3> deltaGamma;   ///< #P each: δΓ
-    std::vector<unsigned char> contact;          ///< #P
-    std::vector<Real> contactDepth;              ///< #P
+    std::array<std::vector<Mat3>, 3> deltaGamma;  ///< #P each: δΓ
+    std::vector<unsigned char> contact;           ///< #P
+    std::vector<Real> contactDepth;               ///< #P
     Vec3 centre = Vec3::Zero(), centreVelocity = Vec3::Zero();
     Mat3 flex = Mat3::Identity(), flexVelocity = Mat3::Zero();
     bool halfStep = false;
-    Mat3 plasticFlex = Mat3::Identity();         ///< plasticity: the flex's rest stretch P
+    Mat3 plasticFlex = Mat3::Identity();            ///< plasticity: the flex's rest stretch P
     std::array<std::vector<Mat3>, 3> plasticGamma;  ///< plasticity: Γ_p (#P each, or empty when off)
-    Real lastStep = 0;                           ///< the last step's length, s (0: none yet); δΓ is per step of it
-    Real freeFlight = 0;                         ///< s since the body last touched a collider (or since its start)
-    Vec3 loadAmplitude = Vec3::Zero();           ///< a pinned body's load modes: amplitudes q, m (load_modes.hpp)
-    Vec3 loadRate = Vec3::Zero();                ///< ... and their rates q̇, m/s
-    std::vector<Vec3> displacement;              ///< #P: the reconstruction's warm start
-    std::vector<Vec3> displacementPrev;          ///< #P: the displacement of the step before (extrapolated warm start)
-    std::vector<Real> volumeLambda;              ///< #C or empty: the last step's volume multipliers (the next one's prediction)
-    std::vector<Real> volumeLambdaPrev;          ///< #C or empty: the step's before
-    std::vector<Vec3> volumeCachePositions;      ///< VolumeProjectionCache::builtFromPositions (#P or empty)
+    Real lastStep = 0;                              ///< the last step's length, s (0: none yet); δΓ is per step of it
+    Real freeFlight = 0;                            ///< s since the body last touched a collider (or since its start)
+    Vec3 loadAmplitude = Vec3::Zero();              ///< a pinned body's load modes: amplitudes q, m (load_modes.hpp)
+    Vec3 loadRate = Vec3::Zero();                   ///< ... and their rates q̇, m/s
+    std::vector<Vec3> displacement;                 ///< #P: the reconstruction's warm start
+    std::vector<Vec3> displacementPrev;  ///< #P: the displacement of the step before (extrapolated warm start)
+    std::vector<Real> volumeLambda;  ///< #C or empty: the last step's volume multipliers (the next one's prediction)
+    std::vector<Real> volumeLambdaPrev;            ///< #C or empty: the step's before
+    std::vector<Vec3> volumeCachePositions;        ///< VolumeProjectionCache::builtFromPositions (#P or empty)
     std::vector<unsigned char> volumeCachePinned;  ///< VolumeProjectionCache::builtFromPinned (#P or empty)
 };
 

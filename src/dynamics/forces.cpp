@@ -73,8 +73,7 @@ Mat3 skew(const Vec3& a) {
 /// Adds a swirl F = h(q) (a × d), q = ρ² = |P d|², P = 1 − a aᵀ, A = [a]×, w = A d, ρ = P d:
 ///   ∂F_i/∂x_j = h A_ij + 2 h' w_i ρ_j
 ///   ∂²F_i/∂x_j∂x_k = 2h' (A_ij ρ_k + A_ik ρ_j + w_i P_jk) + 4 h'' w_i ρ_j ρ_k.
-void addSwirl(const Vec3& a, const Vec3& d, Real h, Real h1, Real h2, ForceOrder order,
-              ForceSample& out) {
+void addSwirl(const Vec3& a, const Vec3& d, Real h, Real h1, Real h2, ForceOrder order, ForceSample& out) {
     const Vec3 w = a.cross(d);
     out.value += h * w;
     if (order == ForceOrder::Value) return;
@@ -110,20 +109,37 @@ void sinCos(Real theta, Real& sinOut, Real& cosOut) {
     const Real r = (theta - n * kPio2Hi) - n * kPio2Lo;  // |r| <= π/4 (+ a few ulp)
     const Real z = r * r;
     // fdlibm __kernel_sin / __kernel_cos minimax coefficients on [−π/4, π/4]
-    const Real sr = r + r * z * (-1.66666666666666324348e-01 +
-                    z * (8.33333333332248946124e-03 + z * (-1.98412698298579493134e-04 +
-                    z * (2.75573137070700676789e-06 + z * (-2.50507602534068634195e-08 +
-                    z * 1.58969099521155010221e-10)))));
+    const Real sr = r + r * z *
+                            (-1.66666666666666324348e-01 +
+                             z * (8.33333333332248946124e-03 +
+                                  z * (-1.98412698298579493134e-04 +
+                                       z * (2.75573137070700676789e-06 +
+                                            z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
     const Real hz = 0.5 * z, w = 1 - hz;
-    const Real cr = w + (((1 - w) - hz) + z * z * (4.16666666666666019037e-02 +
-                    z * (-1.38888888888741095749e-03 + z * (2.48015872894767294178e-05 +
-                    z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 +
-                    z * -1.13596475577881948265e-11))))));
+    const Real cr = w + (((1 - w) - hz) +
+                         z * z *
+                             (4.16666666666666019037e-02 +
+                              z * (-1.38888888888741095749e-03 +
+                                   z * (2.48015872894767294178e-05 +
+                                        z * (-2.75573143513906633035e-07 +
+                                             z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11))))));
     switch (static_cast<long long>(n) & 3) {
-        case 0: sinOut = sr; cosOut = cr; break;
-        case 1: sinOut = cr; cosOut = -sr; break;
-        case 2: sinOut = -sr; cosOut = -cr; break;
-        default: sinOut = -cr; cosOut = sr; break;
+        case 0:
+            sinOut = sr;
+            cosOut = cr;
+            break;
+        case 1:
+            sinOut = cr;
+            cosOut = -sr;
+            break;
+        case 2:
+            sinOut = -sr;
+            cosOut = -cr;
+            break;
+        default:
+            sinOut = -cr;
+            cosOut = sr;
+            break;
     }
 }
 
@@ -153,24 +169,29 @@ std::vector<std::string> ForceTerm::validate() const {
             out.push_back("strength[" + std::to_string(i) + "]: key frames must increase");
     }
     auto positive = [&](const char* name, Real v) {
-        if (!(v > 0) || !std::isfinite(v)) out.push_back(std::string(name) + ": expected a positive number, got " + got(v));
+        if (!(v > 0) || !std::isfinite(v))
+            out.push_back(std::string(name) + ": expected a positive number, got " + got(v));
     };
     auto unit = [&](const char* name, const Vec3& v) {
         if (!finite(v) || !(v.norm() > 1e-12)) out.push_back(std::string(name) + ": expected a non-zero direction");
     };
     switch (kind) {
-        case ForceKind::Gravity: unit("direction", direction); break;
+        case ForceKind::Gravity:
+            unit("direction", direction);
+            break;
         case ForceKind::Attractor:
             if (!finite(centre)) out.push_back("centre: expected finite numbers");
             positive("radius", radius);
             positive("softening", softening);
-            if (!(falloff >= 0 && falloff <= 4)) out.push_back("falloff: expected a number in [0, 4], got " + got(falloff));
+            if (!(falloff >= 0 && falloff <= 4))
+                out.push_back("falloff: expected a number in [0, 4], got " + got(falloff));
             break;
         case ForceKind::Vortex:
             if (!finite(centre)) out.push_back("centre: expected finite numbers");
             unit("axis", axis);
             positive("radius", radius);
-            if (!(falloff >= 0 && falloff <= 4)) out.push_back("falloff: expected a number in [0, 4], got " + got(falloff));
+            if (!(falloff >= 0 && falloff <= 4))
+                out.push_back("falloff: expected a number in [0, 4], got " + got(falloff));
             break;
         case ForceKind::Burst:
             if (!finite(centre)) out.push_back("centre: expected finite numbers");
@@ -181,7 +202,8 @@ std::vector<std::string> ForceTerm::validate() const {
             if (!(turbulence >= 0) || !std::isfinite(turbulence))
                 out.push_back("turbulence: expected a number >= 0, got " + got(turbulence));
             positive("scale", scale);
-            if (modes < 1 || modes > 4096) out.push_back("modes: expected an integer in [1, 4096], got " + std::to_string(modes));
+            if (modes < 1 || modes > 4096)
+                out.push_back("modes: expected an integer in [1, 4096], got " + std::to_string(modes));
             break;
         case ForceKind::Linear:
             if (!finite(centre)) out.push_back("centre: expected finite numbers");
@@ -252,7 +274,9 @@ void ForceField::accumulate(const Vec3& x, Real frame, ForceOrder order, ForceSa
         if (s == 0) continue;
         const Vec3 d = x - term.centre;
         switch (term.kind) {
-            case ForceKind::Gravity: out.value += s * term.direction; break;
+            case ForceKind::Gravity:
+                out.value += s * term.direction;
+                break;
             case ForceKind::Attractor: {
                 // f(q) = −s R^p (q + ε²)^−m, m = (p+1)/2
                 const Constants& k = mConst[t];
@@ -330,23 +354,31 @@ ForceSample ForceField::sample(const Vec3& x, Real frame, ForceOrder order) cons
     return out;
 }
 
-void ForceField::sample(const std::vector<Vec3>& points, Real frame, ForceOrder order,
-                        ForceSamples& out) const {
+void ForceField::sample(const std::vector<Vec3>& points, Real frame, ForceOrder order, ForceSamples& out) const {
     const std::size_t n = points.size();
     out.value.resize(n);
-    if (order >= ForceOrder::Gradient) out.gradient.resize(n); else out.gradient.clear();
+    if (order >= ForceOrder::Gradient)
+        out.gradient.resize(n);
+    else
+        out.gradient.clear();
     for (auto& h : out.hessian) {
-        if (order == ForceOrder::Hessian) h.resize(n); else h.clear();
-    }
-    parallelFor(static_cast<Index>(n), [&](Index p) {
-        const auto i = static_cast<std::size_t>(p);
-        ForceSample s;
-        accumulate(points[i], frame, order, s);
-        out.value[i] = s.value;
-        if (order >= ForceOrder::Gradient) out.gradient[i] = s.gradient;
         if (order == ForceOrder::Hessian)
-            for (int c = 0; c < 3; ++c) out.hessian[c][i] = s.hessian[c];
-    }, 256);
+            h.resize(n);
+        else
+            h.clear();
+    }
+    parallelFor(
+        static_cast<Index>(n),
+        [&](Index p) {
+            const auto i = static_cast<std::size_t>(p);
+            ForceSample s;
+            accumulate(points[i], frame, order, s);
+            out.value[i] = s.value;
+            if (order >= ForceOrder::Gradient) out.gradient[i] = s.gradient;
+            if (order == ForceOrder::Hessian)
+                for (int c = 0; c < 3; ++c) out.hessian[c][i] = s.hessian[c];
+        },
+        256);
 }
 
 }  // namespace dgv

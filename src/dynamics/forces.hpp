@@ -48,7 +48,8 @@ struct Keyframes {
 struct ForceSample {
     Vec3 value = Vec3::Zero();     ///< F, m/s²
     Mat3 gradient = Mat3::Zero();  ///< gradient(i, j) = ∂F_i/∂x_j, 1/s²
-    std::array<Mat3, 3> hessian = {Mat3::Zero(), Mat3::Zero(), Mat3::Zero()};  ///< hessian[i](j, k) = ∂²F_i/∂x_j∂x_k, 1/(m s²)
+    std::array<Mat3, 3> hessian = {Mat3::Zero(), Mat3::Zero(),
+                                   Mat3::Zero()};  ///< hessian[i](j, k) = ∂²F_i/∂x_j∂x_k, 1/(m s²)
 };
 
 /// How much of a sample to compute; higher orders include the lower ones.
@@ -81,17 +82,17 @@ enum class ForceKind { Gravity, Attractor, Vortex, Burst, Wind, Linear, Torsion 
 struct ForceTerm {
     ForceKind kind = ForceKind::Gravity;
     Keyframes strength = Keyframes::constant(1);  ///< s: m/s² (gravity, attractor, vortex, burst, wind); 1/s² (linear)
-    Vec3 direction = Vec3(0, -1, 0);  ///< gravity, wind mean direction; made unit on add()
-    Vec3 centre = Vec3::Zero();       ///< attractor, burst, linear: the centre; vortex: a point on the axis
-    Vec3 axis = Vec3::UnitY();        ///< vortex; made unit on add()
-    Real radius = 1;                  ///< R, metres: attractor reference distance, vortex core, burst peak
-    Real softening = 0.25;            ///< ε, metres, > 0: attractor softening radius
-    Real falloff = 2;                 ///< attractor p (default 2), vortex n (scene default 1); in [0, 4]
-    Real turbulence = 0;              ///< wind: amplitude of T relative to the mean (>= 0)
-    Real scale = 1;                   ///< wind: noise feature size (wavelength), metres, > 0
-    std::uint32_t seed = 1;           ///< wind: noise seed
-    int modes = 32;                   ///< wind: number of Fourier modes, 1..4096
-    Mat3 matrix = Mat3::Zero();       ///< linear: the gradient at unit strength
+    Vec3 direction = Vec3(0, -1, 0);              ///< gravity, wind mean direction; made unit on add()
+    Vec3 centre = Vec3::Zero();                   ///< attractor, burst, linear: the centre; vortex: a point on the axis
+    Vec3 axis = Vec3::UnitY();                    ///< vortex; made unit on add()
+    Real radius = 1;                              ///< R, metres: attractor reference distance, vortex core, burst peak
+    Real softening = 0.25;                        ///< ε, metres, > 0: attractor softening radius
+    Real falloff = 2;                             ///< attractor p (default 2), vortex n (scene default 1); in [0, 4]
+    Real turbulence = 0;                          ///< wind: amplitude of T relative to the mean (>= 0)
+    Real scale = 1;                               ///< wind: noise feature size (wavelength), metres, > 0
+    std::uint32_t seed = 1;                       ///< wind: noise seed
+    int modes = 32;                               ///< wind: number of Fourier modes, 1..4096
+    Mat3 matrix = Mat3::Zero();                   ///< linear: the gradient at unit strength
 
     /// Problems by field name ("softening: expected a positive number, got 0"); empty when valid.
     std::vector<std::string> validate() const;
@@ -137,8 +138,8 @@ private:
 
     /// Per-term constants, fixed on add().
     struct Constants {
-        Real scale = 1;     ///< attractor R^p; vortex 2^e R^n
-        Real exponent = 0;  ///< attractor m = (p+1)/2; vortex e = (n+1)/2
+        Real scale = 1;          ///< attractor R^p; vortex 2^e R^n
+        Real exponent = 0;       ///< attractor m = (p+1)/2; vortex e = (n+1)/2
         int twiceExponent = -1;  ///< 2·exponent when it is an integer (sqrt and products, no pow)
     };
     std::vector<ForceTerm> mTerms;

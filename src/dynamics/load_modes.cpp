@@ -23,10 +23,9 @@ Real dot(const std::vector<Real>& a, const std::vector<Real>& b) {
 
 }  // namespace
 
-LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest,
-                           const std::vector<unsigned char>& pinned, const LatticeCells& cells,
-                           const std::vector<Real>& restVolumes, const std::vector<Real>& mass,
-                           const PoissonSolver& solver) {
+LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest, const std::vector<unsigned char>& pinned,
+                           const LatticeCells& cells, const std::vector<Real>& restVolumes,
+                           const std::vector<Real>& mass, const PoissonSolver& solver) {
     const Index n = lat.size();
     DGV_CHECK_EQ(static_cast<Index>(rest.size()), n);
     DGV_CHECK_EQ(static_cast<Index>(pinned.size()), n);
@@ -60,8 +59,10 @@ LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest,
         (void)hexVolumeGradient(x, grad[at(c)]);
         for (std::size_t k = 0; k < 8; ++k) {
             const Index p = cells.corners[at(c)][k];
-            if (moves[at(p)]) active[at(c)] = 1;
-            else grad[at(c)][k].setZero();
+            if (moves[at(p)])
+                active[at(c)] = 1;
+            else
+                grad[at(c)][k].setZero();
             grad[at(c)][k] /= restVolumes[at(c)];
         }
     });

@@ -40,17 +40,16 @@ struct LoadModes {
     Vec3 strain = Vec3::Zero();          ///< per mode: the largest cell strain per unit amplitude, 1/m
     /// Per mode, what an affine load a + K X̃ (X̃ = rest position about the centre of mass) puts on
     /// it: Σ_p m_p w_i(p) · (a + K X̃_p) = a · massSum[i] + K : firstMoment[i].
-    std::array<Vec3, 3> massSum{};       ///< Σ_p m_p w_i(p), kg
-    std::array<Mat3, 3> firstMoment{};   ///< Σ_p m_p w_i(p) X̃_pᵀ, kg m
+    std::array<Vec3, 3> massSum{};      ///< Σ_p m_p w_i(p), kg
+    std::array<Mat3, 3> firstMoment{};  ///< Σ_p m_p w_i(p) X̃_pᵀ, kg m
     bool empty() const { return w[0].empty(); }
 };
 
 /// The three load modes of a body at rest (positions `rest`, #P) held at the points with
 /// pinned[p] != 0. `solver` is the body's Poisson solver (its fixed set: the pins, plus one point
 /// in each component without a pin). Empty when no point is pinned or no point is free.
-LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest,
-                           const std::vector<unsigned char>& pinned, const LatticeCells& cells,
-                           const std::vector<Real>& restVolumes, const std::vector<Real>& mass,
-                           const PoissonSolver& solver);
+LoadModes computeLoadModes(const Lattice& lat, const std::vector<Vec3>& rest, const std::vector<unsigned char>& pinned,
+                           const LatticeCells& cells, const std::vector<Real>& restVolumes,
+                           const std::vector<Real>& mass, const PoissonSolver& solver);
 
 }  // namespace dgv

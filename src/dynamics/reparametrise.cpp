@@ -153,7 +153,9 @@ Reparametrisation reparametrise(const DeformableBody& body) {
                       std::to_string(cellDims.y()) + " x " + std::to_string(cellDims.z()) + " cells)";
         return out;
     }
-    auto cellIndex = [&](const Vec3i& w) { return at(w.x() + Index(cellDims.x()) * (w.y() + Index(cellDims.y()) * w.z())); };
+    auto cellIndex = [&](const Vec3i& w) {
+        return at(w.x() + Index(cellDims.x()) * (w.y() + Index(cellDims.y()) * w.z()));
+    };
     auto gridIndex = [&](const Vec3i& u) { return at(u.x() + Index(dims.x()) * (u.y() + Index(dims.y()) * u.z())); };
 
     // How much of each new cell the old shape covers, by kSub³ samples per cell, and the mean
@@ -163,28 +165,31 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     std::vector<int> inside(at(cellCount), 0);
     std::vector<Vec3> velocitySum(at(cellCount), Vec3::Zero());
     const Vec3i fineDims = kSub * cellDims;
-    forEachTetrahedron(cells, x, h, [&](const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& tlo,
-                                        const Vec3& thi) {
-        Vec3i a, b;
-        for (int d = 0; d < 3; ++d) {
-            a[d] = std::max(0, static_cast<int>(std::ceil((tlo[d] - origin[d]) / h * kSub - Real(0.5))));
-            b[d] = std::min(fineDims[d] - 1, static_cast<int>(std::floor((thi[d] - origin[d]) / h * kSub - Real(0.5))));
-        }
-        for (int kk = a.z(); kk <= b.z(); ++kk)
-            for (int jj = a.y(); jj <= b.y(); ++jj)
-                for (int ii = a.x(); ii <= b.x(); ++ii) {
-                    const Vec3i cell(ii / kSub, jj / kSub, kk / kSub);
-                    const std::size_t c = cellIndex(cell);
-                    const std::size_t f = c * kSubSamples + at((ii % kSub) + kSub * ((jj % kSub) + kSub * (kk % kSub)));
-                    if (covered[f]) continue;
-                    const Vec3 p = origin + (h / kSub) * (Vec3(ii, jj, kk) + Vec3::Constant(Real(0.5)));
-                    Sample s;
-                    if (!barycentric(ids, v0, mi, p, s)) continue;
-                    covered[f] = 1;
-                    ++inside[c];
-                    velocitySum[c] += interpolate(s, v);
-                }
-    });
+    forEachTetrahedron(
+        cells, x, h,
+        [&](const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& tlo, const Vec3& thi) {
+            Vec3i a, b;
+            for (int d = 0; d < 3; ++d) {
+                a[d] = std::max(0, static_cast<int>(std::ceil((tlo[d] - origin[d]) / h * kSub - Real(0.5))));
+                b[d] = std::min(fineDims[d] - 1,
+                                static_cast<int>(std::floor((thi[d] - origin[d]) / h * kSub - Real(0.5))));
+            }
+            for (int kk = a.z(); kk <= b.z(); ++kk)
+                for (int jj = a.y(); jj <= b.y(); ++jj)
+                    for (int ii = a.x(); ii <= b.x(); ++ii) {
+                        const Vec3i cell(ii / kSub, jj / kSub, kk / kSub);
+                        const std::size_t c = cellIndex(cell);
+                        const std::size_t f =
+                            c * kSubSamples + at((ii % kSub) + kSub * ((jj % kSub) + kSub * (kk % kSub)));
+                        if (covered[f]) continue;
+                        const Vec3 p = origin + (h / kSub) * (Vec3(ii, jj, kk) + Vec3::Constant(Real(0.5)));
+                        Sample s;
+                        if (!barycentric(ids, v0, mi, p, s)) continue;
+                        covered[f] = 1;
+                        ++inside[c];
+                        velocitySum[c] += interpolate(s, v);
+                    }
+        });
     // The new cells: the most covered ones (ranked by their own samples, ties by their six
     // neighbours'), as many as make the complete cells' total closest to the body's volume;
     // the new points: their corners. A cell between chosen ones (a gap of under a voxel between
@@ -201,8 +206,8 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     }
     if (!(out.sampled >= kMinRemapSampled)) {
         char why[200];
-        std::snprintf(why, sizeof why,
-                      "its samples see %.0f %% of its volume (parts under a third of a voxel thick)", 100 * out.sampled);
+        std::snprintf(why, sizeof why, "its samples see %.0f %% of its volume (parts under a third of a voxel thick)",
+                      100 * out.sampled);
         out.refused = why;
         return out;
     }
@@ -241,7 +246,8 @@ Reparametrisation reparametrise(const DeformableBody& body) {
             for (int j = 0; j < cellDims.y(); ++j)
                 for (int i = 0; i < cellDims.x(); ++i) {
                     bool all = true;
-                    for (int q = 0; q < 8 && all; ++q) all = mask[gridIndex(Vec3i(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1)))] != 0;
+                    for (int q = 0; q < 8 && all; ++q)
+                        all = mask[gridIndex(Vec3i(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1)))] != 0;
                     complete += all ? 1 : 0;
                 }
         return complete;
@@ -251,8 +257,10 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     std::size_t least = 1, most = ranked.size();
     while (least < most) {
         const std::size_t mid = (least + most) / 2;
-        if (Real(choose(mid)) >= target) most = mid;
-        else least = mid + 1;
+        if (Real(choose(mid)) >= target)
+            most = mid;
+        else
+            least = mid + 1;
     }
     std::size_t count = least;
     if (count > 1 && std::abs(Real(choose(count - 1)) - target) < std::abs(Real(choose(count)) - target)) --count;
@@ -288,9 +296,10 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     }
     if (!(out.mismatch <= kMaxRemapMismatch)) {
         char why[200];
-        std::snprintf(why, sizeof why,
-                      "its new cells would leave %.1f %% of its volume more than a cell away (parts under a voxel thick)",
-                      100 * out.mismatch);
+        std::snprintf(
+            why, sizeof why,
+            "its new cells would leave %.1f %% of its volume more than a cell away (parts under a voxel thick)",
+            100 * out.mismatch);
         out.refused = why;
         return out;
     }
@@ -312,21 +321,22 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     // Velocities: interpolated in the old tetrahedra at the new points; a new point outside them
     // (a corner of a new cell that pokes out of the old shape) takes the mean of its cells' samples.
     std::vector<Sample> corners(at(Index(dims.prod())));
-    forEachTetrahedron(cells, x, h, [&](const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& tlo,
-                                        const Vec3& thi) {
-        Vec3i a, b;
-        for (int d = 0; d < 3; ++d) {
-            a[d] = std::max(0, static_cast<int>(std::ceil((tlo[d] - origin[d]) / h)));
-            b[d] = std::min(dims[d] - 1, static_cast<int>(std::floor((thi[d] - origin[d]) / h)));
-        }
-        for (int kk = a.z(); kk <= b.z(); ++kk)
-            for (int jj = a.y(); jj <= b.y(); ++jj)
-                for (int ii = a.x(); ii <= b.x(); ++ii) {
-                    Sample& s = corners[gridIndex(Vec3i(ii, jj, kk))];
-                    if (!s.inside() && mask[gridIndex(Vec3i(ii, jj, kk))])
-                        (void)barycentric(ids, v0, mi, origin + h * Vec3(ii, jj, kk), s);
-                }
-    });
+    forEachTetrahedron(
+        cells, x, h,
+        [&](const std::array<Index, 4>& ids, const Vec3& v0, const Mat3& mi, const Vec3& tlo, const Vec3& thi) {
+            Vec3i a, b;
+            for (int d = 0; d < 3; ++d) {
+                a[d] = std::max(0, static_cast<int>(std::ceil((tlo[d] - origin[d]) / h)));
+                b[d] = std::min(dims[d] - 1, static_cast<int>(std::floor((thi[d] - origin[d]) / h)));
+            }
+            for (int kk = a.z(); kk <= b.z(); ++kk)
+                for (int jj = a.y(); jj <= b.y(); ++jj)
+                    for (int ii = a.x(); ii <= b.x(); ++ii) {
+                        Sample& s = corners[gridIndex(Vec3i(ii, jj, kk))];
+                        if (!s.inside() && mask[gridIndex(Vec3i(ii, jj, kk))])
+                            (void)barycentric(ids, v0, mi, origin + h * Vec3(ii, jj, kk), s);
+                    }
+        });
     const Index n = grid.size();
     std::vector<Vec3> vNew(at(n), Vec3::Zero());
     parallelFor(n, [&](Index p) {
@@ -401,7 +411,8 @@ Reparametrisation reparametrise(const DeformableBody& body) {
         computeGeometricState(grid, ahead, next, BoundaryStencils::Realisable);
         computeGeometricState(grid, behind, prev, BoundaryStencils::Realisable);
         for (std::size_t c = 0; c < 3; ++c)
-            parallelFor(n, [&](Index p) { s.deltaGamma[c][at(p)] = next.christoffel[c][at(p)] - now.christoffel[c][at(p)]; });
+            parallelFor(
+                n, [&](Index p) { s.deltaGamma[c][at(p)] = next.christoffel[c][at(p)] - now.christoffel[c][at(p)]; });
         s.tangentPrev = prev.tangent;
         s.havePrev = true;
     }

@@ -45,7 +45,9 @@ LatticeDistortion latticeDistortion(const DeformableBody& body);
 struct ReparametriseBound {
     Real maxGamma = 0.5;
     Real minFrameDet = 0.25;
-    bool exceeded(const LatticeDistortion& d) const { return !(d.maxGamma <= maxGamma) || !(d.minFrameDet >= minFrameDet); }
+    bool exceeded(const LatticeDistortion& d) const {
+        return !(d.maxGamma <= maxGamma) || !(d.minFrameDet >= minFrameDet);
+    }
 };
 
 /// The largest change of the cell spacing a remap may make (|dilation − 1|): beyond it the new
@@ -63,14 +65,14 @@ inline constexpr long kMaxRemapGridCells = 8'000'000;
 
 /// A body re-voxelised in its current shape.
 struct Reparametrisation {
-    Lattice lattice;             ///< the new material lattice (spacing h · dilation)
-    DeformableBodyState state;   ///< the body's state on it: construct a DeformableBody on `lattice`
-                                 ///< at restPositions(lattice) with the same settings, then restoreState
-    Vec3 pivot = Vec3::Zero();   ///< world points of the old shape map to pivot + dilation (w − pivot)
+    Lattice lattice;            ///< the new material lattice (spacing h · dilation)
+    DeformableBodyState state;  ///< the body's state on it: construct a DeformableBody on `lattice`
+                                ///< at restPositions(lattice) with the same settings, then restoreState
+    Vec3 pivot = Vec3::Zero();  ///< world points of the old shape map to pivot + dilation (w − pivot)
     Real dilation = 1;
-    Real mismatch = 0;           ///< the old shape's volume more than a cell from every new cell / the volume
-    Real sampled = 0;            ///< the old shape's volume the samples see / the volume
-    std::string refused;         ///< why the body cannot be re-parametrised (then nothing else is set)
+    Real mismatch = 0;    ///< the old shape's volume more than a cell from every new cell / the volume
+    Real sampled = 0;     ///< the old shape's volume the samples see / the volume
+    std::string refused;  ///< why the body cannot be re-parametrised (then nothing else is set)
 };
 
 /// Re-voxelises `body` in its current shape (file comment). Refused (with the reason) for a body

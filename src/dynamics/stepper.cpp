@@ -213,7 +213,9 @@ int viscousTwistStep(const Lattice& lat, Real alpha, std::array<std::vector<Mat3
     using Vec27 = Eigen::Matrix<Real, 27, 1>;
     auto get = [&](Index p) {
         Vec27 v;
-        for (std::size_t c = 0; c < 3; ++c) v.segment<9>(9 * static_cast<Index>(c)) = Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(dGamma[c][at(p)].data());
+        for (std::size_t c = 0; c < 3; ++c)
+            v.segment<9>(9 * static_cast<Index>(c)) =
+                Eigen::Map<const Eigen::Matrix<Real, 9, 1>>(dGamma[c][at(p)].data());
         return v;
     };
     std::vector<Vec27> b(at(n)), x(at(n)), r(at(n)), z(at(n)), d(at(n)), q(at(n));
@@ -234,7 +236,8 @@ int viscousTwistStep(const Lattice& lat, Real alpha, std::array<std::vector<Mat3
     };
     auto dot = [&](const std::vector<Vec27>& u, const std::vector<Vec27>& v) {
         return parallelReduce(
-            n, Real(0), [&](Real& acc, Index p) { acc += u[at(p)].dot(v[at(p)]); }, [](Real a, Real c) { return a + c; });
+            n, Real(0), [&](Real& acc, Index p) { acc += u[at(p)].dot(v[at(p)]); },
+            [](Real a, Real c) { return a + c; });
     };
     // x0 = D⁻¹ b (the Jacobi step): r = b − A x0.
     parallelFor(n, [&](Index p) { x[at(p)] = b[at(p)] / diag[at(p)]; });
@@ -264,7 +267,8 @@ int viscousTwistStep(const Lattice& lat, Real alpha, std::array<std::vector<Mat3
     }
     parallelFor(n, [&](Index p) {
         for (std::size_t c = 0; c < 3; ++c)
-            Eigen::Map<Eigen::Matrix<Real, 9, 1>>(dGamma[c][at(p)].data()) = x[at(p)].segment<9>(9 * static_cast<Index>(c));
+            Eigen::Map<Eigen::Matrix<Real, 9, 1>>(dGamma[c][at(p)].data()) =
+                x[at(p)].segment<9>(9 * static_cast<Index>(c));
     });
     return it;
 }
@@ -272,10 +276,12 @@ int viscousTwistStep(const Lattice& lat, Real alpha, std::array<std::vector<Mat3
 std::vector<std::string> DynamicsSettings::validate() const {
     std::vector<std::string> out;
     auto positive = [&](Real v, const char* name) {
-        if (!(v > 0) || !std::isfinite(v)) out.push_back(std::string(name) + ": expected a positive number, got " + std::to_string(v));
+        if (!(v > 0) || !std::isfinite(v))
+            out.push_back(std::string(name) + ": expected a positive number, got " + std::to_string(v));
     };
     auto nonNegative = [&](Real v, const char* name) {
-        if (!(v >= 0) || !std::isfinite(v)) out.push_back(std::string(name) + ": expected a number >= 0, got " + std::to_string(v));
+        if (!(v >= 0) || !std::isfinite(v))
+            out.push_back(std::string(name) + ": expected a number >= 0, got " + std::to_string(v));
     };
     positive(density, "density");
     nonNegative(damping, "damping");
@@ -312,8 +318,8 @@ Real Collider::evaluate(const Vec3& x, Vec3& gradient) const {
     return 1;
 }
 
-DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positions,
-                               const DynamicsSettings& settings, std::vector<unsigned char> pinned)
+DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positions, const DynamicsSettings& settings,
+                               std::vector<unsigned char> pinned)
     : mLat(lattice), mSet(settings), mPinned(std::move(pinned)), mX(std::move(positions)) {
     const Index n = mLat.size();
     DGV_CHECK(n > 0);
@@ -382,7 +388,8 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
     for (Index p = 0; p < n; ++p)
         if (fixed[at(p)]) mSolverFixed.push_back(p);
     mSolver = std::make_unique<PoissonSolver>(mLat, fixed);
-    if (mAnyPinned && mSet.pinnedLoad) mLoad = computeLoadModes(mLat, mX, mPinned, mCells, mRestVolumes, mMass, *mSolver);
+    if (mAnyPinned && mSet.pinnedLoad)
+        mLoad = computeLoadModes(mLat, mX, mPinned, mCells, mRestVolumes, mMass, *mSolver);
     mRecWork = std::make_unique<ReconstructWork>();
     mRecWork->tree = spanningTree(mLat, fixed);
     mDisplacement.assign(at(n), Vec3::Zero());
@@ -727,12 +734,12 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         const Vec3i& u = mLat.coords[at(worst)];
         const Vec3& xw = mX[at(worst)];
         char what[400];
-        std::snprintf(what, sizeof what,
-                      "reconstruction: the twist moved material point u = (%d, %d, %d) at (%.4g, %.4g, %.4g) %.3g voxels "
-                      "in one step (solve %s); the shape is sheared past what the lattice resolves (measured: a "
-                      "boundary frame folds first): use more damping, more substeps, a briefer force or a stiffer material",
-                      u.x(), u.y(), u.z(), xw.x(), xw.y(), xw.z(), maxStep / h,
-                      rec.converged ? "converged" : "did not converge");
+        std::snprintf(
+            what, sizeof what,
+            "reconstruction: the twist moved material point u = (%d, %d, %d) at (%.4g, %.4g, %.4g) %.3g voxels "
+            "in one step (solve %s); the shape is sheared past what the lattice resolves (measured: a "
+            "boundary frame folds first): use more damping, more substeps, a briefer force or a stiffer material",
+            u.x(), u.y(), u.z(), xw.x(), xw.y(), xw.z(), maxStep / h, rec.converged ? "converged" : "did not converge");
         report.fault = what;
         mDisplacement.assign(at(n), Vec3::Zero());
         mDisplacementPrev.assign(at(n), Vec3::Zero());
@@ -1044,8 +1051,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                 }
                 if (normal.isZero()) continue;
                 std::array<std::pair<Real, Index>, 8> away;
-                for (std::size_t k = 0; k < 8; ++k)
-                    away[k] = {normal.dot(mA * mRestRel[at(corners[k])]), corners[k]};
+                for (std::size_t k = 0; k < 8; ++k) away[k] = {normal.dot(mA * mRestRel[at(corners[k])]), corners[k]};
                 std::sort(away.begin(), away.end());
                 for (std::size_t k = 4; k < 8; ++k) release.push_back(away[k].second);
             }
@@ -1200,7 +1206,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
                     const Real vs = slip.norm(), brake = friction * (1 + restitution) * (-vn);
                     if (vs > 0 && brake > 0) {
                         const Vec3 tdir = slip / vs;
-                        const Vec3 turn = inertia.solve(arm.cross(tdir));      // δω per unit impulse along −t
+                        const Vec3 turn = inertia.solve(arm.cross(tdir));     // δω per unit impulse along −t
                         const Real response = 1 + arm.cross(tdir).dot(turn);  // slip change per unit impulse
                         const Real lambda = std::min(vs / response, brake);
                         mVc -= lambda * tdir;

@@ -73,16 +73,16 @@ enum class TwistStretch {
 /// Material and integration settings of a body. Defaults: goo (no memory of its rest shape),
 /// damped at 1/s.
 struct DynamicsSettings {
-    Real density = 1000;              ///< kg/m^3
-    Real damping = 1;                 ///< ζ, 1/s: twist δΓ decays as exp(−ζ t); flex stretch rate too.
-                                      ///< Goo with 0 flows forever after a push and folds (docs/math.md)
+    Real density = 1000;  ///< kg/m^3
+    Real damping = 1;     ///< ζ, 1/s: twist δΓ decays as exp(−ζ t); flex stretch rate too.
+                          ///< Goo with 0 flows forever after a push and folds (docs/math.md)
     /// ν, m²/s: kinematic viscosity (docs/math.md, "Viscosity: the viscous stress on the twist
     /// rate"). The viscous term ν ∇²v on the non-affine motion, which the twist carries, as an
     /// implicit diffusion of δΓ over the lattice each step: stable at any ν, the lattice-scale
     /// part damped most, affine motion (a spin) not at all. 0: none (the notes' goo).
     Real viscosity = 0;
-    Real shapeStiffness = 0;          ///< k, 1/s^2: restoring term toward the rest shape (jelly);
-                                      ///< wobble frequency sqrt(k)/(2π) Hz
+    Real shapeStiffness = 0;  ///< k, 1/s^2: restoring term toward the rest shape (jelly);
+                              ///< wobble frequency sqrt(k)/(2π) Hz
     /// Plasticity (docs/math.md, "Plasticity: the rest shape yields"), with shape memory only: the
     /// largest elastic strain the body holds, a logarithmic strain (0.2: about 22 % stretch).
     /// Beyond it the rest shape follows the body (putty, clay: a squash or a dent stays, the
@@ -96,8 +96,8 @@ struct DynamicsSettings {
     /// lattice components do not change under a rigid motion (docs/math.md, "Twist"; the
     /// pumping once measured with the rotation was the tree's frames, see frameSweeps).
     bool twistRotation = false;
-    Real maxDeltaGamma = 0.05;        ///< limiter: |δΓ| (Frobenius over the 18 components, per
-                                      ///< lattice step) per point per step
+    Real maxDeltaGamma = 0.05;  ///< limiter: |δΓ| (Frobenius over the 18 components, per
+                                ///< lattice step) per point per step
     /// Carry the connection change that happened (Γ_new − Γ_old, after every constraint) as the
     /// next step's δΓ (true), or the one eq 76 asked for (false, the default). Measured: true
     /// turns a collider's one-step squash into a lasting rate and folds the body (docs/math.md).
@@ -133,10 +133,10 @@ struct DynamicsSettings {
     /// box held by its bottom face at stiffness 100 folded after 4 s at 0.5 and runs at 0.3;
     /// `jelly_stretch`'s attractor folded it at 0.3 and runs at 0.2).
     Real maxLoadStrain = 0.2;
-    bool traceFree = true;            ///< the trace-free projection of δΓ (volume); off only for tests of eq 78
-    Real volumeTolerance = 1e-5;      ///< volume projection: max_c |V/V0 − 1| after each step
+    bool traceFree = true;        ///< the trace-free projection of δΓ (volume); off only for tests of eq 78
+    Real volumeTolerance = 1e-5;  ///< volume projection: max_c |V/V0 − 1| after each step
     bool projectVolume = true;
-    Real reconstructTolerance = 1e-6; ///< relative residual of the displacement solve
+    Real reconstructTolerance = 1e-6;  ///< relative residual of the displacement solve
     /// Red-black Gauss-Seidel sweeps over the reconstruction's frames after the tree integration
     /// (connectionChangeSteps; docs/math.md, "Frames that do not depend on the tree"), clear of
     /// colliders: a body keeps the tree's frames until it has been clear of every collider for
@@ -200,24 +200,24 @@ void affineContactCorrection(const std::vector<AffineContact>& contacts, const M
 struct Collider {
     enum class Kind { Plane, Sphere, Distance };
     Kind kind = Kind::Plane;
-    Vec3 point = Vec3::Zero();        ///< plane: a point on it; sphere: the centre
-    Vec3 normal = Vec3::UnitY();      ///< plane: unit normal pointing out of the solid side
-    Real radius = 1;                  ///< sphere
+    Vec3 point = Vec3::Zero();    ///< plane: a point on it; sphere: the centre
+    Vec3 normal = Vec3::UnitY();  ///< plane: unit normal pointing out of the solid side
+    Real radius = 1;              ///< sphere
     /// Distance: signed distance at x, gradient written to *gradient (unit near the surface).
     std::function<Real(const Vec3& x, Vec3* gradient)> distance;
-    Real friction = 0.5;              ///< 0 slip .. 1 stick (fraction of the tangential step removed)
-    Real restitution = 0;             ///< 0..1: contact points go out beyond the surface by this × their
-                                      ///< depth (normal reflection), and on the normal part of the body velocity
+    Real friction = 0.5;   ///< 0 slip .. 1 stick (fraction of the tangential step removed)
+    Real restitution = 0;  ///< 0..1: contact points go out beyond the surface by this × their
+                           ///< depth (normal reflection), and on the normal part of the body velocity
     /// Another body's surface (docs/gln.md, "Objects colliding"): the body's points take `share`
     /// of each push the prediction asked for (the other body's points take the rest), friction
     /// acts on the step relative to `velocity` (the other body's centre velocity), and the
     /// penetration left is measured by the caller once both bodies have moved
     /// (StepReport::maxPenetration leaves it out). The caller also puts the pair's momentum right.
     bool object = false;
-    Real share = 1;                   ///< fraction of each push this body's points take (1: a static collider)
-    Vec3 velocity = Vec3::Zero();     ///< the collider's velocity, world units/s
-    bool pairContact = false;         ///< the two bodies touch this step (decided by the caller for both)
-    int body = -1;                    ///< the other body's index in the caller's list (-1: none)
+    Real share = 1;                ///< fraction of each push this body's points take (1: a static collider)
+    Vec3 velocity = Vec3::Zero();  ///< the collider's velocity, world units/s
+    bool pairContact = false;      ///< the two bodies touch this step (decided by the caller for both)
+    int body = -1;                 ///< the other body's index in the caller's list (-1: none)
 
     /// Signed distance and its gradient at x.
     Real evaluate(const Vec3& x, Vec3& gradient) const;
@@ -225,25 +225,25 @@ struct Collider {
 
 /// Per-step figures (also summed into a frame's stats by the caller).
 struct StepReport {
-    Real kineticEnergy = 0;           ///< ½ Σ m |v|², v = (x_new − x_old)/δt, J
-    Real sumDeltaGamma2 = 0;          ///< Σ_p Σ_cab (δΓ^c_ab)²
-    Real maxCellVolumeError = 0;      ///< max_c |V_c/V0_c − 1| after the step
-    Real totalVolumeDrift = 0;        ///< Σ V / Σ V0 − 1 after the step
-    Index invertedCells = 0;          ///< cells with V <= 0
-    Index contacts = 0;               ///< points in contact with a collider this step
-    bool staticContact = false;       ///< some of them with a collider that is not another body
+    Real kineticEnergy = 0;       ///< ½ Σ m |v|², v = (x_new − x_old)/δt, J
+    Real sumDeltaGamma2 = 0;      ///< Σ_p Σ_cab (δΓ^c_ab)²
+    Real maxCellVolumeError = 0;  ///< max_c |V_c/V0_c − 1| after the step
+    Real totalVolumeDrift = 0;    ///< Σ V / Σ V0 − 1 after the step
+    Index invertedCells = 0;      ///< cells with V <= 0
+    Index contacts = 0;           ///< points in contact with a collider this step
+    bool staticContact = false;   ///< some of them with a collider that is not another body
     // Contact detection against the truth (signed distance before the response; docs/gln.md):
-    Index contactTruth = 0;           ///< points with φ < 0 for some collider before the response
-    Index contactTruePositive = 0;    ///< of which in the contact set R
-    Real maxPenetration = 0;          ///< max over points and colliders of −φ after the step (world units; 0 if none)
-    Index limitedPoints = 0;          ///< points whose δΓ the limiter scaled down
-    int reconstructIterations = 0;    ///< CG iterations of the displacement solve
-    int volumeIterations = 0;         ///< Gauss-Newton iterations of the volume projection
+    Index contactTruth = 0;         ///< points with φ < 0 for some collider before the response
+    Index contactTruePositive = 0;  ///< of which in the contact set R
+    Real maxPenetration = 0;        ///< max over points and colliders of −φ after the step (world units; 0 if none)
+    Index limitedPoints = 0;        ///< points whose δΓ the limiter scaled down
+    int reconstructIterations = 0;  ///< CG iterations of the displacement solve
+    int volumeIterations = 0;       ///< Gauss-Newton iterations of the volume projection
     bool volumeConverged = true;
-    std::string fault;                ///< numerical trouble ("stage: what"); empty when none
+    std::string fault;  ///< numerical trouble ("stage: what"); empty when none
     // wall-clock seconds of each stage
-    double forcesSeconds = 0, bodyFlexSeconds = 0, twistSeconds = 0, reconstructSeconds = 0,
-           collideSeconds = 0, volumeSeconds = 0, stateSeconds = 0, totalSeconds = 0;
+    double forcesSeconds = 0, bodyFlexSeconds = 0, twistSeconds = 0, reconstructSeconds = 0, collideSeconds = 0,
+           volumeSeconds = 0, stateSeconds = 0, totalSeconds = 0;
     // parts of reconstructSeconds: the edge transports of both connections, the frames along the
     // tree and the sweeps, and the least-squares solve (solve/reconstruct, connectionChangeSteps)
     double reconstructEdgeSeconds = 0, reconstructFrameSeconds = 0, reconstructSolveSeconds = 0;
@@ -350,7 +350,7 @@ private:
     std::vector<Real> mMass;
     Real mTotalMass = 0;
     std::vector<Real> mVolumeWeight;  ///< the volume projection's weights: heaviest mass / mass
-    std::vector<Vec3> mRestRel;   ///< X̃: rest position about the rest centre of mass
+    std::vector<Vec3> mRestRel;       ///< X̃: rest position about the rest centre of mass
     Mat3 mS0inv = Mat3::Identity();
     std::vector<unsigned char> mPinned;
     bool mAnyPinned = false;
@@ -367,10 +367,10 @@ private:
 
     Vec3 mC = Vec3::Zero(), mVc = Vec3::Zero();
     Mat3 mA = Mat3::Identity(), mAdot = Mat3::Zero();
-    bool mHalfStep = false;       ///< mVc/mAdot are half-step velocities (after the first step)
+    bool mHalfStep = false;  ///< mVc/mAdot are half-step velocities (after the first step)
     // Plasticity (DynamicsSettings::yieldStrain > 0):
-    Mat3 mPlasticFlex = Mat3::Identity();             ///< P: the flex's rest shape is R P (det 1)
-    std::array<std::vector<Mat3>, 3> mPlasticGamma;   ///< Γ_p per point (#P each; empty when off)
+    Mat3 mPlasticFlex = Mat3::Identity();            ///< P: the flex's rest shape is R P (det 1)
+    std::array<std::vector<Mat3>, 3> mPlasticGamma;  ///< Γ_p per point (#P each; empty when off)
     Real mGammaYield = 0;  ///< the yield of |Γ − Γ_p| per lattice step: yieldStrain / the radius of gyration in steps
     void yieldRestShape();  ///< returns P and Γ_p to within the yield (end of finish)
 
@@ -383,19 +383,19 @@ private:
     std::vector<Index> mSolverFixed;  ///< the reconstruction's reference points (pins, or a centre point per component)
     std::unique_ptr<PoissonSolver> mSolver;
     std::unique_ptr<ReconstructWork> mRecWork;  ///< the solver's spanning tree and work arrays (stepper.cpp)
-    std::vector<Vec3> mDisplacement;  ///< last step's twist displacement (warm start)
-    std::vector<Vec3> mDisplacementPrev;  ///< the one before (the warm start extrapolates)
-    std::vector<Real> mVolumeLambda;      ///< #C: the last step's volume multipliers (the next step's prediction)
-    std::vector<Real> mVolumeLambdaPrev;  ///< the step's before (the prediction extrapolates)
+    std::vector<Vec3> mDisplacement;            ///< last step's twist displacement (warm start)
+    std::vector<Vec3> mDisplacementPrev;        ///< the one before (the warm start extrapolates)
+    std::vector<Real> mVolumeLambda;            ///< #C: the last step's volume multipliers (the next step's prediction)
+    std::vector<Real> mVolumeLambdaPrev;        ///< the step's before (the prediction extrapolates)
     // Between predict and finish:
     bool mPredicted = false;
-    std::vector<Vec3> mXPred;         ///< the predicted positions
+    std::vector<Vec3> mXPred;                            ///< the predicted positions
     Vec3 mCPred = Vec3::Zero(), mVcPred = Vec3::Zero();  ///< centre and its velocity after the kick
-    Mat3 mAPred = Mat3::Identity();   ///< A after the step, in SL(3)
+    Mat3 mAPred = Mat3::Identity();                      ///< A after the step, in SL(3)
     Real mDtPred = 0;
-    Real mFreeFlight = 0;             ///< s since the body last touched a collider (frameSweeps)
-    Real mDtLast = 0;                 ///< the last finished step's length (0: none yet)
-    void rescaleStep(Real ratio);     ///< the per-step state for a step `ratio` times as long
+    Real mFreeFlight = 0;          ///< s since the body last touched a collider (frameSweeps)
+    Real mDtLast = 0;              ///< the last finished step's length (0: none yet)
+    void rescaleStep(Real ratio);  ///< the per-step state for a step `ratio` times as long
     StepReport mPredReport;
     VolumeProjectionCache mVolumeCache;  ///< the volume projection's multigrid, kept between steps
 };

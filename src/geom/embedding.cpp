@@ -123,8 +123,7 @@ MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVer
     return emb;
 }
 
-void deformVertices(const MeshEmbedding& emb, const GeometricState& state,
-                    std::vector<Vec3>& vertices) {
+void deformVertices(const MeshEmbedding& emb, const GeometricState& state, std::vector<Vec3>& vertices) {
     const std::size_t nv = emb.size();
     vertices.resize(nv);
     const bool second = emb.secondOrder;
@@ -140,8 +139,7 @@ void deformVertices(const MeshEmbedding& emb, const GeometricState& state,
         }
         const std::size_t q = at(emb.anchor[v]);
         const Vec3& d = emb.offset[v];
-        Vec3 dx =
-            state.tangent[0][q] * d.x() + state.tangent[1][q] * d.y() + state.tangent[2][q] * d.z();
+        Vec3 dx = state.tangent[0][q] * d.x() + state.tangent[1][q] * d.y() + state.tangent[2][q] * d.z();
         if (second) {
             Vec3 quad = Vec3::Zero();
             for (std::size_t k = 0; k < 6; ++k) {

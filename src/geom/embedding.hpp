@@ -27,10 +27,10 @@ struct MeshEmbedding {
     /// corners are material points; otherwise the nearest material point and the offset from
     /// it in lattice units (the vertex then follows that point's tangent frame).
     std::vector<std::array<Index, 8>> corners;
-    std::vector<std::array<Real, 8>> weights;   ///< sums to 1 when corners[v][0] != kNoPoint
-    std::vector<Index> anchor;                  ///< nearest material point (always valid)
-    std::vector<Vec3> offset;                   ///< vertex - x(anchor), lattice units, at rest
-    bool secondOrder = true;  ///< anchored vertices add 1/2 x_ab d_a d_b (Taylor, 2nd order)
+    std::vector<std::array<Real, 8>> weights;  ///< sums to 1 when corners[v][0] != kNoPoint
+    std::vector<Index> anchor;                 ///< nearest material point (always valid)
+    std::vector<Vec3> offset;                  ///< vertex - x(anchor), lattice units, at rest
+    bool secondOrder = true;                   ///< anchored vertices add 1/2 x_ab d_a d_b (Taylor, 2nd order)
 
     std::size_t size() const { return anchor.size(); }
     /// Whether vertex v is carried trilinearly (else by its anchor's frame).
@@ -45,7 +45,6 @@ MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVer
 
 /// Deformed vertex positions (world units) from the current state (positions, tangent frames
 /// and second derivatives); `vertices` is resized to emb.size(). In parallel.
-void deformVertices(const MeshEmbedding& emb, const GeometricState& state,
-                    std::vector<Vec3>& vertices);
+void deformVertices(const MeshEmbedding& emb, const GeometricState& state, std::vector<Vec3>& vertices);
 
 }  // namespace dgv

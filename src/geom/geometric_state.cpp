@@ -21,15 +21,14 @@ inline Index step(const Lattice& lat, Index p, int slot) {
 /// First and (optionally) second derivative of a lattice field along one axis.
 template <typename T>
 struct AxisDerivative {
-    T first;
-    T second;
+    T first = T::Zero();
+    T second = T::Zero();
     bool present = false;  ///< false: no neighbour on either side (first, second = 0)
 };
 
 /// The 1-D stencils of geometric_state.hpp for field f at point p along axis a.
 template <typename T, bool kSecond>
-AxisDerivative<T> axisDerivative(const Lattice& lat, const std::vector<T>& f, Index p, int a,
-                                 bool realisable = false) {
+AxisDerivative<T> axisDerivative(const Lattice& lat, const std::vector<T>& f, Index p, int a, bool realisable = false) {
     AxisDerivative<T> d;
     const std::array<Index, 6>& nb = lat.neighbours[at(p)];
     const Index lo = nb[static_cast<std::size_t>(2 * a)];
@@ -97,15 +96,12 @@ Vec3 tangentDifference(const Lattice& lat, const std::vector<Vec3>& x, Index p, 
 /// tangentDifference (Realisable).
 Vec3 mixedDerivative(const Lattice& lat, const std::vector<Vec3>& x, Index p, int a, int b, bool realisable) {
     const std::array<Index, 6>& nb = lat.neighbours[at(p)];
-    const Index am = nb[static_cast<std::size_t>(2 * a)],
-                ap = nb[static_cast<std::size_t>(2 * a + 1)];
-    const Index bm = nb[static_cast<std::size_t>(2 * b)],
-                bp = nb[static_cast<std::size_t>(2 * b + 1)];
+    const Index am = nb[static_cast<std::size_t>(2 * a)], ap = nb[static_cast<std::size_t>(2 * a + 1)];
+    const Index bm = nb[static_cast<std::size_t>(2 * b)], bp = nb[static_cast<std::size_t>(2 * b + 1)];
     const int slotBm = 2 * b, slotBp = 2 * b + 1;
     const Index pp = step(lat, ap, slotBp), pm = step(lat, ap, slotBm);
     const Index mp = step(lat, am, slotBp), mm = step(lat, am, slotBm);
-    if (pp != kNoPoint && pm != kNoPoint && mp != kNoPoint && mm != kNoPoint && bm != kNoPoint &&
-        bp != kNoPoint) {
+    if (pp != kNoPoint && pm != kNoPoint && mp != kNoPoint && mm != kNoPoint && bm != kNoPoint && bp != kNoPoint) {
         return Real(0.25) * ((x[at(pp)] - x[at(pm)]) - (x[at(mp)] - x[at(mm)]));
     }
     if (realisable) return Real(0.5) * (tangentDifference(lat, x, p, b, a) + tangentDifference(lat, x, p, a, b));
@@ -131,8 +127,8 @@ Vec3 mixedDerivative(const Lattice& lat, const std::vector<Vec3>& x, Index p, in
 /// Fills tangents missing at p (no neighbour along that axis) with the mean of the same tangent at
 /// p's 6-neighbours that have it (slot order, so deterministic), marking them present. Exact for
 /// affine maps; leaves axes that no neighbour has (thin sheets and rods) missing.
-void extrapolateFrame(const Lattice& lat, const std::vector<Vec3>& x, Index p,
-                      std::array<Vec3, 3>& tangent, std::array<bool, 3>& present) {
+void extrapolateFrame(const Lattice& lat, const std::vector<Vec3>& x, Index p, std::array<Vec3, 3>& tangent,
+                      std::array<bool, 3>& present) {
     const std::array<Index, 6>& nb = lat.neighbours[at(p)];
     std::array<Vec3, 3> sum = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
     std::array<int, 3> count = {0, 0, 0};
@@ -180,12 +176,11 @@ void completeFrame(std::array<Vec3, 3>& tangent, const std::array<bool, 3>& pres
     }
     if (n == 2) {
         const int c = !present[0] ? 0 : (!present[1] ? 1 : 2);
-        const Vec3 normal = tangent[static_cast<std::size_t>((c + 1) % 3)].cross(
-            tangent[static_cast<std::size_t>((c + 2) % 3)]);
+        const Vec3 normal =
+            tangent[static_cast<std::size_t>((c + 1) % 3)].cross(tangent[static_cast<std::size_t>((c + 2) % 3)]);
         const Real nn = normal.squaredNorm();
-        tangent[static_cast<std::size_t>(c)] = nn > Real(1e-12) * h * h * h * h
-                                                   ? Vec3(normal * (h * h * h / nn))
-                                                   : Vec3(h * Vec3::Unit(c));
+        tangent[static_cast<std::size_t>(c)] =
+            nn > Real(1e-12) * h * h * h * h ? Vec3(normal * (h * h * h / nn)) : Vec3(h * Vec3::Unit(c));
         return;
     }
     const int a = present[0] ? 0 : (present[1] ? 1 : 2);
@@ -236,8 +231,8 @@ bool invertMetric(const Mat3& g, Mat3& gInv) {
     return false;
 }
 
-void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& positions,
-                           GeometricState& state, BoundaryStencils stencils) {
+void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& positions, GeometricState& state,
+                           BoundaryStencils stencils) {
     const bool realisable = stencils == BoundaryStencils::Realisable;
     const Index n = lat.size();
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), n);
@@ -304,8 +299,7 @@ void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& position
     });
 }
 
-std::vector<Mat3> covariantDerivative(const Lattice& lat, const GeometricState& state,
-                                      const std::vector<Vec3>& f) {
+std::vector<Mat3> covariantDerivative(const Lattice& lat, const GeometricState& state, const std::vector<Vec3>& f) {
     const Index n = lat.size();
     DGV_CHECK_EQ(static_cast<Index>(f.size()), n);
     DGV_CHECK_EQ(state.size(), n);

@@ -37,12 +37,12 @@ namespace dgv {
 inline constexpr std::array<std::array<int, 2>, 6> kSymmetricPairs = {{{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
 
 struct GeometricState {
-    std::vector<Vec3> position;                 ///< x, world units
-    std::array<std::vector<Vec3>, 3> tangent;   ///< x_a = dx/du_a (eq 1)
-    std::vector<Mat3> metric;                   ///< g_ab = x_a . x_b (eq 2)
-    std::vector<Mat3> metricInv;                ///< g^ab (eq 3)
-    std::array<std::vector<Vec3>, 3> dual;      ///< x^a = g^ab x_b (eq 5); x^a . x_b = delta
-    std::array<std::vector<Vec3>, 6> second;    ///< x_ab by kSymmetricPairs (eq 7)
+    std::vector<Vec3> position;                ///< x, world units
+    std::array<std::vector<Vec3>, 3> tangent;  ///< x_a = dx/du_a (eq 1)
+    std::vector<Mat3> metric;                  ///< g_ab = x_a . x_b (eq 2)
+    std::vector<Mat3> metricInv;               ///< g^ab (eq 3)
+    std::array<std::vector<Vec3>, 3> dual;     ///< x^a = g^ab x_b (eq 5); x^a . x_b = delta
+    std::array<std::vector<Vec3>, 6> second;   ///< x_ab by kSymmetricPairs (eq 7)
     /// christoffel[c][p](a,b) = Gamma^c_ab = x^c . x_ab (eq 8), symmetric in (a,b).
     std::array<std::vector<Mat3>, 3> christoffel;
 
@@ -68,15 +68,14 @@ enum class BoundaryStencils {
 /// in parallel; bit-identical for any thread count. `state` is resized to #P (its storage is
 /// reused when it already has that size). Never produces NaN or infinity: near-singular
 /// frames get a pseudo-inverse metric (invertMetric).
-void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& positions,
-                           GeometricState& state, BoundaryStencils stencils = BoundaryStencils::Accurate);
+void computeGeometricState(const Lattice& lat, const std::vector<Vec3>& positions, GeometricState& state,
+                           BoundaryStencils stencils = BoundaryStencils::Accurate);
 
 /// Covariant derivative (eq 11) of the contravariant field f^b (#P Vec3s of coefficients, one
 /// per point): result[p](b, a) = f^b_{;a} = d f^b / du_a + sum_c f^c Gamma^b_ca. d/du_a uses the
 /// x_a stencil above (central inside, one-sided at the boundary, 0 along axes with no
 /// neighbour). Requires state computed on `lat`.
-std::vector<Mat3> covariantDerivative(const Lattice& lat, const GeometricState& state,
-                                      const std::vector<Vec3>& f);
+std::vector<Mat3> covariantDerivative(const Lattice& lat, const GeometricState& state, const std::vector<Vec3>& f);
 
 // ---- per-point kernels (pure; used by computeGeometricState, exposed for tests) ------------
 
@@ -93,8 +92,7 @@ std::vector<Mat3> covariantDerivative(const Lattice& lat, const GeometricState& 
 ///  - two missing: the rest directions h e_b, h e_c carried by the smallest rotation that takes
 ///    e_a to x_a / |x_a|, scaled by sqrt(h / |x_a|).
 ///  - all missing (isolated point): x_a = h e_a.
-void completeFrame(std::array<Vec3, 3>& tangent, const std::array<bool, 3>& present,
-                   Real spacing);
+void completeFrame(std::array<Vec3, 3>& tangent, const std::array<bool, 3>& present, Real spacing);
 
 /// g^-1 of a symmetric positive semi-definite metric (eq 3). Returns true for a regular metric
 /// (adjugate / det). When det g <= 1e-14 (tr g / 3)^3 it returns false and writes the

@@ -30,8 +30,7 @@ void unite(std::vector<Index>& parent, Index a, Index b) {
 
 }  // namespace
 
-Lattice buildLattice(const Vec3& originWorld, Real spacing, const Vec3i& dims,
-                     const std::vector<unsigned char>& mask) {
+Lattice buildLattice(const Vec3& originWorld, Real spacing, const Vec3i& dims, const std::vector<unsigned char>& mask) {
     DGV_CHECK((dims.array() >= 0).all());
     DGV_CHECK_GT(spacing, Real(0));
     Lattice lat;
@@ -144,7 +143,8 @@ Lattice withoutLoosePoints(const Lattice& lat, Index* removed) {
     parallelFor(n, [&](Index p) { inCell[static_cast<std::size_t>(p)] = completeCellsAt(lat, p) > 0 ? 1 : 0; });
     std::vector<unsigned char> componentHasCell(static_cast<std::size_t>(lat.components), 0);
     for (Index p = 0; p < n; ++p)
-        if (inCell[static_cast<std::size_t>(p)]) componentHasCell[static_cast<std::size_t>(lat.component[static_cast<std::size_t>(p)])] = 1;
+        if (inCell[static_cast<std::size_t>(p)])
+            componentHasCell[static_cast<std::size_t>(lat.component[static_cast<std::size_t>(p)])] = 1;
     std::vector<unsigned char> mask(lat.pointOfCell.size(), 0);
     Index dropped = 0;
     for (Index p = 0; p < n; ++p) {

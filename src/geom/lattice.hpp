@@ -23,24 +23,27 @@ struct Lattice {
     Real spacing = 1;                 ///< h, world units per lattice step
     Vec3i dims = Vec3i::Zero();       ///< grid size in points along i, j, k
 
-    std::vector<Vec3i> coords;                    ///< #P material coordinates u
-    std::vector<Index> pointOfCell;               ///< dims.prod() entries: point id or kNoPoint
-    std::vector<std::array<Index, 6>> neighbours; ///< #P, by NeighbourSlot; kNoPoint if absent
-    std::vector<int> component;                   ///< #P connected-component id, 0..components-1
-    int components = 0;                           ///< number of 6-connected components
+    std::vector<Vec3i> coords;                     ///< #P material coordinates u
+    std::vector<Index> pointOfCell;                ///< dims.prod() entries: point id or kNoPoint
+    std::vector<std::array<Index, 6>> neighbours;  ///< #P, by NeighbourSlot; kNoPoint if absent
+    std::vector<int> component;                    ///< #P connected-component id, 0..components-1
+    int components = 0;                            ///< number of 6-connected components
 
     Index size() const { return static_cast<Index>(coords.size()); }
     Index linearIndex(const Vec3i& u) const { return u.x() + Index(dims.x()) * (u.y() + Index(dims.y()) * u.z()); }
     bool inGrid(const Vec3i& u) const { return (u.array() >= 0).all() && (u.array() < dims.array()).all(); }
     /// Point id at u, or kNoPoint if u is outside the grid or not a material point.
-    Index pointAt(const Vec3i& u) const { return inGrid(u) ? pointOfCell[static_cast<std::size_t>(linearIndex(u))] : kNoPoint; }
-    Vec3 restPosition(Index p) const { return originWorld + spacing * coords[static_cast<std::size_t>(p)].cast<Real>(); }
+    Index pointAt(const Vec3i& u) const {
+        return inGrid(u) ? pointOfCell[static_cast<std::size_t>(linearIndex(u))] : kNoPoint;
+    }
+    Vec3 restPosition(Index p) const {
+        return originWorld + spacing * coords[static_cast<std::size_t>(p)].cast<Real>();
+    }
 };
 
 /// Builds the lattice from an occupancy mask over the grid (mask[linearIndex(u)] != 0 means u is
 /// a material point): numbers the points, links neighbours and labels 6-connected components.
-Lattice buildLattice(const Vec3& originWorld, Real spacing, const Vec3i& dims,
-                     const std::vector<unsigned char>& mask);
+Lattice buildLattice(const Vec3& originWorld, Real spacing, const Vec3i& dims, const std::vector<unsigned char>& mask);
 
 /// Rest positions of all points, in point order.
 std::vector<Vec3> restPositions(const Lattice& lat);

@@ -27,8 +27,7 @@ void requirePositive(Real value, const char* name) {
 
 void requireAtLeast(int value, int least, const char* name) {
     if (value < least)
-        throw InputError("", name, "must be at least " + std::to_string(least) + ", got " +
-                                       std::to_string(value));
+        throw InputError("", name, "must be at least " + std::to_string(least) + ", got " + std::to_string(value));
 }
 
 /// Surface of revolution around Y. `profile` is (radius, y) from the top pole (radius 0) to the
@@ -59,8 +58,7 @@ TriangleMesh revolve(const std::vector<std::pair<Real, Real>>& profile, int segm
             m.triangles.push_back({a, c, d});
         }
     }
-    for (int j = 0; j < segments; ++j)
-        m.triangles.push_back({ring(rings, j), south, ring(rings, j + 1)});
+    for (int j = 0; j < segments; ++j) m.triangles.push_back({ring(rings, j), south, ring(rings, j + 1)});
     return m;
 }
 
@@ -73,16 +71,14 @@ TriangleMesh makeSphere(Real radius, int segments, int rings) {
     std::vector<std::pair<Real, Real>> profile;
     for (int i = 0; i <= rings; ++i) {
         const Real theta = kPi * i / rings;
-        profile.emplace_back(i == 0 || i == rings ? 0 : radius * std::sin(theta),
-                             radius * std::cos(theta));
+        profile.emplace_back(i == 0 || i == rings ? 0 : radius * std::sin(theta), radius * std::cos(theta));
     }
     return revolve(profile, segments);
 }
 
 TriangleMesh makeCapsule(Real radius, Real height, int segments, int rings) {
     requirePositive(radius, "radius");
-    if (!(std::isfinite(height) && height >= 0))
-        throw InputError("", "height", "must be a finite number >= 0");
+    if (!(std::isfinite(height) && height >= 0)) throw InputError("", "height", "must be a finite number >= 0");
     requireAtLeast(segments, 3, "segments");
     requireAtLeast(rings, 1, "rings");
     // `rings` latitude bands per hemisphere; the cylinder is one band between the equators.
@@ -94,8 +90,7 @@ TriangleMesh makeCapsule(Real radius, Real height, int segments, int rings) {
     }
     for (int i = (height > 0 ? 0 : 1); i <= rings; ++i) {
         const Real theta = 0.5 * kPi + 0.5 * kPi * i / rings;
-        profile.emplace_back(i == rings ? 0 : radius * std::sin(theta),
-                             -half + radius * std::cos(theta));
+        profile.emplace_back(i == rings ? 0 : radius * std::sin(theta), -half + radius * std::cos(theta));
     }
     return revolve(profile, segments);
 }
@@ -131,8 +126,7 @@ TriangleMesh makeBox(const Vec3& size, int divisions) {
                         return vertex(g);
                     };
                     // Counter-clockwise seen from +a, since e_b x e_c = e_a.
-                    const int p0 = corner(0, 0), p1 = corner(1, 0), p2 = corner(1, 1),
-                              p3 = corner(0, 1);
+                    const int p0 = corner(0, 0), p1 = corner(1, 0), p2 = corner(1, 1), p3 = corner(0, 1);
                     if (side == d) {
                         m.triangles.push_back({p0, p1, p2});
                         m.triangles.push_back({p0, p2, p3});
@@ -150,8 +144,7 @@ TriangleMesh makeBox(const Vec3& size, int divisions) {
 TriangleMesh makeTorus(Real majorRadius, Real minorRadius, int majorSegments, int minorSegments) {
     requirePositive(majorRadius, "major_radius");
     requirePositive(minorRadius, "minor_radius");
-    if (!(minorRadius < majorRadius))
-        throw InputError("", "minor_radius", "must be smaller than major_radius");
+    if (!(minorRadius < majorRadius)) throw InputError("", "minor_radius", "must be smaller than major_radius");
     requireAtLeast(majorSegments, 3, "major_segments");
     requireAtLeast(minorSegments, 3, "minor_segments");
     TriangleMesh m;
@@ -165,9 +158,7 @@ TriangleMesh makeTorus(Real majorRadius, Real minorRadius, int majorSegments, in
                                  Vec3(0, minorRadius * std::sin(theta), 0));
         }
     }
-    auto id = [&](int j, int k) {
-        return (j % majorSegments) * minorSegments + (k % minorSegments);
-    };
+    auto id = [&](int j, int k) { return (j % majorSegments) * minorSegments + (k % minorSegments); };
     for (int j = 0; j < majorSegments; ++j) {
         for (int k = 0; k < minorSegments; ++k) {
             const int a = id(j, k), b = id(j + 1, k), c = id(j + 1, k + 1), d = id(j, k + 1);

@@ -36,7 +36,8 @@ Real SdfGrid::distance(const Vec3& x) const {
     locate(t.z(), dims.z(), k, fz);
     auto lerp = [](Real a, Real bb, Real f) { return a + (bb - a) * f; };
     const Real c00 = lerp(at(i, j, k), at(i + 1, j, k), fx), c10 = lerp(at(i, j + 1, k), at(i + 1, j + 1, k), fx);
-    const Real c01 = lerp(at(i, j, k + 1), at(i + 1, j, k + 1), fx), c11 = lerp(at(i, j + 1, k + 1), at(i + 1, j + 1, k + 1), fx);
+    const Real c01 = lerp(at(i, j, k + 1), at(i + 1, j, k + 1), fx),
+               c11 = lerp(at(i, j + 1, k + 1), at(i + 1, j + 1, k + 1), fx);
     const Real inside = lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
     return inside + (x - c).norm();
 }

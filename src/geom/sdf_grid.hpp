@@ -19,11 +19,11 @@
 namespace dgv {
 
 struct SdfGrid {
-    Vec3 origin = Vec3::Zero();   ///< world position of sample (0, 0, 0)
-    Real spacing = 1;             ///< world units between samples (> 0)
-    Vec3i dims = Vec3i::Zero();   ///< samples per axis (each >= 2)
-    Real narrowBand = 0;          ///< |distance| is exact below this (0: everywhere)
-    std::vector<float> values;    ///< dims.prod() signed distances, world units
+    Vec3 origin = Vec3::Zero();  ///< world position of sample (0, 0, 0)
+    Real spacing = 1;            ///< world units between samples (> 0)
+    Vec3i dims = Vec3i::Zero();  ///< samples per axis (each >= 2)
+    Real narrowBand = 0;         ///< |distance| is exact below this (0: everywhere)
+    std::vector<float> values;   ///< dims.prod() signed distances, world units
 
     bool empty() const { return values.empty(); }
     Index linearIndex(int i, int j, int k) const { return i + Index(dims.x()) * (j + Index(dims.y()) * k); }

@@ -21,8 +21,7 @@ Vec3 cofactorTimes(const GeometricState& state, std::size_t q, Real invH, const 
 
 /// |F e0| with F's columns the tangents / h.
 Real frameLength(const GeometricState& state, std::size_t q, Real invH, const Vec3& e0) {
-    return ((state.tangent[0][q] * e0.x() + state.tangent[1][q] * e0.y() + state.tangent[2][q] * e0.z()) * invH)
-        .norm();
+    return ((state.tangent[0][q] * e0.x() + state.tangent[1][q] * e0.y() + state.tangent[2][q] * e0.z()) * invH).norm();
 }
 
 Vec3 normalOf(const std::vector<Vec3>& v, const std::array<int, 3>& t) {

@@ -37,8 +37,8 @@ namespace dgv {
 
 /// What the check needs of the rest mesh, made once (prepareSurfaceCheck).
 struct SurfaceCheckSetup {
-    std::vector<std::array<int, 2>> edges;        ///< each edge once (vertex indices)
-    std::vector<std::array<Index, 3>> neighbours; ///< triangle pairs sharing an edge, and a vertex of that edge
+    std::vector<std::array<int, 2>> edges;         ///< each edge once (vertex indices)
+    std::vector<std::array<Index, 3>> neighbours;  ///< triangle pairs sharing an edge, and a vertex of that edge
 };
 SurfaceCheckSetup prepareSurfaceCheck(const TriangleMesh& restMesh);
 
@@ -51,8 +51,8 @@ struct SurfaceCheck {
     bool ok() const;
 };
 
-constexpr Real kFoldCosine = -0.5; ///< neighbours more than 120° apart have folded over
-constexpr Real kFoldHeight = 0.25; ///< ... both at least this many voxels high (2 area / longest edge)
+constexpr Real kFoldCosine = -0.5;  ///< neighbours more than 120° apart have folded over
+constexpr Real kFoldHeight = 0.25;  ///< ... both at least this many voxels high (2 area / longest edge)
 /// A frame whose surface folds over on more than this fraction of its triangles is torn. Below
 /// it the folds are specks or creases in a crushed contact layer (measured on the stress suite:
 /// up to 12 of the 3,968 triangles of goo balls spread on the ground, 30 on the bottom ball of a
@@ -60,8 +60,8 @@ constexpr Real kFoldHeight = 0.25; ///< ... both at least this many voxels high 
 /// (a jelly hanging from a small pin: 162 of 3,968, before its lattice folds). A tear is caught
 /// by its edges first (the swirled duck: torn edges from frame 14, where its folds were 1.3 %).
 constexpr Real kMaxFlippedFraction = 0.02;
-constexpr Real kTearRatio = 4;     ///< an edge may stretch 4× beyond what its frames predict
-constexpr Real kTearSlack = 0.5;   ///< plus half a voxel (edges crossing cells, the 2nd-order term)
+constexpr Real kTearRatio = 4;    ///< an edge may stretch 4× beyond what its frames predict
+constexpr Real kTearSlack = 0.5;  ///< plus half a voxel (edges crossing cells, the 2nd-order term)
 
 /// Checks the deformed surface.
 /// @param setup      prepareSurfaceCheck(restMesh)
@@ -71,7 +71,7 @@ constexpr Real kTearSlack = 0.5;   ///< plus half a voxel (edges crossing cells,
 /// @param spacing    h, the lattice spacing (world units)
 /// @param deformed   #V deformed vertex positions (deformVertices of the same state)
 /// Deterministic for any thread count.
-SurfaceCheck checkSurface(const SurfaceCheckSetup& setup, const TriangleMesh& restMesh, const MeshEmbedding& emb, const GeometricState& state,
-                          Real spacing, const std::vector<Vec3>& deformed);
+SurfaceCheck checkSurface(const SurfaceCheckSetup& setup, const TriangleMesh& restMesh, const MeshEmbedding& emb,
+                          const GeometricState& state, Real spacing, const std::vector<Vec3>& deformed);
 
 }  // namespace dgv

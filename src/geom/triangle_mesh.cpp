@@ -34,8 +34,7 @@ std::size_t dropDegenerateTriangles(TriangleMesh& mesh) {
         const Vec3& b = mesh.vertices[static_cast<std::size_t>(t[1])];
         const Vec3& c = mesh.vertices[static_cast<std::size_t>(t[2])];
         const Vec3 e0 = b - a, e1 = c - b, e2 = a - c;
-        const Real longest2 =
-            std::max({e0.squaredNorm(), e1.squaredNorm(), e2.squaredNorm()});
+        const Real longest2 = std::max({e0.squaredNorm(), e1.squaredNorm(), e2.squaredNorm()});
         return !(e0.cross(-e2).norm() > 1e-14 * longest2);
     };
     mesh.triangles.erase(std::remove_if(mesh.triangles.begin(), mesh.triangles.end(), degenerate),

@@ -25,12 +25,12 @@ struct MeshReport {
     std::size_t triangles = 0;
     std::size_t degenerateDropped = 0;  ///< zero-area or repeated-index triangles removed
     Box3 bounds;
-    bool closed = false;      ///< every edge has exactly two incident triangles
-    bool manifold = false;    ///< every edge has at most two incident triangles, and
-                              ///< consistently oriented ones where two
+    bool closed = false;               ///< every edge has exactly two incident triangles
+    bool manifold = false;             ///< every edge has at most two incident triangles, and
+                                       ///< consistently oriented ones where two
     std::size_t boundaryEdges = 0;     ///< edges with one triangle (holes)
     std::size_t nonManifoldEdges = 0;  ///< edges with three or more triangles
-    Real signedVolume = 0;    ///< sum of signed tetrahedra to the origin (exact for closed meshes)
+    Real signedVolume = 0;             ///< sum of signed tetrahedra to the origin (exact for closed meshes)
 };
 
 /// Removes triangles with repeated indices or zero area (|cross| <= 1e-14 * longest edge^2);

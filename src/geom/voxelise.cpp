@@ -53,18 +53,15 @@ std::string numberText(Real v) {
 std::vector<FieldProblem> settingProblems(const VoxeliseSettings& s) {
     std::vector<FieldProblem> out;
     if (!std::isfinite(s.voxelSize) || s.voxelSize < 0)
-        out.push_back({"voxel_size", "must be a positive finite number (or 0 to use resolution), got " +
-                                         numberText(s.voxelSize)});
+        out.push_back({"voxel_size",
+                       "must be a positive finite number (or 0 to use resolution), got " + numberText(s.voxelSize)});
     if (s.resolution < 0 || s.resolution > kMaxResolution)
         out.push_back({"resolution", "must be between 1 and " + std::to_string(kMaxResolution) +
-                                         " (or 0 to use voxel_size), got " +
-                                         std::to_string(s.resolution)});
+                                         " (or 0 to use voxel_size), got " + std::to_string(s.resolution)});
     if (out.empty()) {
         const bool hasSize = s.voxelSize > 0, hasResolution = s.resolution > 0;
-        if (hasSize && hasResolution)
-            out.push_back({"voxel_size", "give either voxel_size or resolution, not both"});
-        if (!hasSize && !hasResolution)
-            out.push_back({"voxel_size", "give voxel_size or resolution (both are 0)"});
+        if (hasSize && hasResolution) out.push_back({"voxel_size", "give either voxel_size or resolution, not both"});
+        if (!hasSize && !hasResolution) out.push_back({"voxel_size", "give voxel_size or resolution (both are 0)"});
     }
     if (!(std::isfinite(s.windingThreshold) && s.windingThreshold > 0 && s.windingThreshold <= 1))
         out.push_back({"winding_threshold", "must be in (0, 1], got " + numberText(s.windingThreshold)});
@@ -147,9 +144,9 @@ public:
 private:
     static constexpr int kLeafSize = 8;
     struct Node {
-        Vec3 centre;   ///< area-weighted centroid
-        Vec3 dipole;   ///< sum of area vectors
-        Real radius;   ///< bounds every vertex: |x - centre| <= radius
+        Vec3 centre;  ///< area-weighted centroid
+        Vec3 dipole;  ///< sum of area vectors
+        Real radius;  ///< bounds every vertex: |x - centre| <= radius
         int left = -1, right = -1;
         int first = 0, count = 0;
     };
@@ -190,12 +187,11 @@ private:
             int axis = 0;
             cbox.size().maxCoeff(&axis);
             const int mid = first + (last - first) / 2;
-            std::nth_element(mOrder.begin() + first, mOrder.begin() + mid, mOrder.begin() + last,
-                             [&](int a, int b) {
-                                 const Real ca = mCentroid[static_cast<std::size_t>(a)][axis];
-                                 const Real cb = mCentroid[static_cast<std::size_t>(b)][axis];
-                                 return ca < cb || (ca == cb && a < b);
-                             });
+            std::nth_element(mOrder.begin() + first, mOrder.begin() + mid, mOrder.begin() + last, [&](int a, int b) {
+                const Real ca = mCentroid[static_cast<std::size_t>(a)][axis];
+                const Real cb = mCentroid[static_cast<std::size_t>(b)][axis];
+                return ca < cb || (ca == cb && a < b);
+            });
             node.left = build(first, mid);
             node.right = build(mid, last);
         }
@@ -295,8 +291,8 @@ std::vector<Box3> holeBoxes(const TriangleMesh& mesh, const Topology& topo) {
 // Exact signed crossing counts along +k rays through every grid column (i, j).
 
 /// Twice the signed area of (a, b, p), exact: all inputs are fixed-point integers < 2^28.
-inline std::int64_t orient(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
-                           std::int64_t px, std::int64_t py) {
+inline std::int64_t orient(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by, std::int64_t px,
+                           std::int64_t py) {
     return (bx - ax) * (py - ay) - (by - ay) * (px - ax);
 }
 
@@ -304,8 +300,8 @@ inline std::int64_t orient(std::int64_t ax, std::int64_t ay, std::int64_t bx, st
 /// ties broken by simulation of simplicity: p is perturbed by (eps, eps^2), and the edge is
 /// evaluated in its canonical direction (lexicographically smaller end first) so that the two
 /// triangles sharing an edge always see the same side.
-inline int edgeSide(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
-                    std::int64_t px, std::int64_t py) {
+inline int edgeSide(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by, std::int64_t px,
+                    std::int64_t py) {
     int flip = 1;
     if (bx < ax || (bx == ax && by < ay)) {
         std::swap(ax, bx);
@@ -314,9 +310,12 @@ inline int edgeSide(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int6
     }
     const std::int64_t e = orient(ax, ay, bx, by, px, py);
     int s;
-    if (e != 0) s = e > 0 ? 1 : -1;
-    else if (by != ay) s = by > ay ? -1 : 1;  // e(p + (eps, eps^2)) = dx eps^2 - dy eps
-    else s = bx > ax ? 1 : -1;               // dy == 0 and, canonically, dx > 0
+    if (e != 0)
+        s = e > 0 ? 1 : -1;
+    else if (by != ay)
+        s = by > ay ? -1 : 1;  // e(p + (eps, eps^2)) = dx eps^2 - dy eps
+    else
+        s = bx > ax ? 1 : -1;  // dy == 0 and, canonically, dx > 0
     return flip * s;
 }
 
@@ -382,8 +381,7 @@ RayCounts countCrossings(const TriangleMesh& mesh, const Vec3& origin, Real h, c
                         total[static_cast<std::size_t>(col)].fetch_add(s0, std::memory_order_relaxed);
                         if (top < 0) continue;
                         const Index k = top >= Real(nz - 1) ? nz - 1 : static_cast<Index>(top);
-                        diff[static_cast<std::size_t>(col + nx * ny * k)].fetch_add(
-                            s0, std::memory_order_relaxed);
+                        diff[static_cast<std::size_t>(col + nx * ny * k)].fetch_add(s0, std::memory_order_relaxed);
                     }
                 }
             }
@@ -434,8 +432,8 @@ std::size_t estimateLatticeBytes(Index gridCells, Index points) {
     // inverse metric 72, 3 duals 72, 6 second derivatives 144, Christoffel 3 Mat3 216, its last
     // change 216, previous tangents 72: 1024 bytes. Per cell: pointOfCell 8.
     constexpr double kPerPoint = 1024, kPerCell = 8;
-    const double bytes = kPerPoint * double(std::max<Index>(points, 0)) +
-                         kPerCell * double(std::max<Index>(gridCells, 0));
+    const double bytes =
+        kPerPoint * double(std::max<Index>(points, 0)) + kPerCell * double(std::max<Index>(gridCells, 0));
     if (bytes >= double(std::numeric_limits<std::size_t>::max())) return std::numeric_limits<std::size_t>::max();
     return static_cast<std::size_t>(bytes);
 }
@@ -450,9 +448,9 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
     for (const auto& t : mesh.triangles)
         for (int v : t)
             if (v < 0 || static_cast<std::size_t>(v) >= mesh.vertices.size())
-                throw InputError("", "", "a triangle refers to vertex " + std::to_string(v) +
-                                             ", out of range (" + std::to_string(mesh.vertices.size()) +
-                                             " vertices)");
+                throw InputError("", "",
+                                 "a triangle refers to vertex " + std::to_string(v) + ", out of range (" +
+                                     std::to_string(mesh.vertices.size()) + " vertices)");
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
         if (!allFiniteNoTrap(mesh.vertices[v]))
             throw InputError("", "", "vertex " + std::to_string(v) + " has a non-finite coordinate");
@@ -547,7 +545,7 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
                     if (!exact && !covering.empty()) {
                         bool upBlocked = false, downBlocked = false;
                         for (const IndexBox* hb : covering) {
-                            const bool below = Real(k) < hb->lo[2], above = Real(k) > hb->hi[2];
+                            const bool below = Real(k)<hb->lo[2], above = Real(k)> hb->hi[2];
                             if (!below && !above) exact = true;  // near a hole
                             if (!above) upBlocked = true;        // the +k ray meets the hole
                             if (!below) downBlocked = true;      // the -k ray meets the hole
@@ -555,8 +553,10 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
                         if (!exact && upBlocked && downBlocked) exact = true;
                         if (!exact && upBlocked) count = up - totalCount;  // the -k ray's count
                     }
-                    if (exact) mine.push_back(c);
-                    else mask[static_cast<std::size_t>(c)] = Real(count) >= threshold;
+                    if (exact)
+                        mine.push_back(c);
+                    else
+                        mask[static_cast<std::size_t>(c)] = Real(count) >= threshold;
                 }
             }
         },

@@ -17,11 +17,11 @@
 namespace dgv {
 
 struct VoxeliseSettings {
-    Real voxelSize = 0;          ///< h in world units; or 0 to derive it from `resolution`
-    int resolution = 0;          ///< lattice points along the longest side of the bounds, padding
-                                 ///< excluded (1..2048): h = longest side / resolution; or 0 to
-                                 ///< use `voxelSize`
-    Real windingThreshold = 0.5; ///< inside when w >= threshold
+    Real voxelSize = 0;           ///< h in world units; or 0 to derive it from `resolution`
+    int resolution = 0;           ///< lattice points along the longest side of the bounds, padding
+                                  ///< excluded (1..2048): h = longest side / resolution; or 0 to
+                                  ///< use `voxelSize`
+    Real windingThreshold = 0.5;  ///< inside when w >= threshold
     /// Memory the lattice and its geometric state may take; 0 means 3/4 of physical memory.
     std::size_t memoryBudgetBytes = 0;
 
@@ -30,12 +30,12 @@ struct VoxeliseSettings {
 };
 
 struct VoxeliseReport {
-    Real spacing = 0;          ///< h used
+    Real spacing = 0;  ///< h used
     Vec3i dims = Vec3i::Zero();
-    Index points = 0;          ///< material points (voxels inside)
-    Real voxelVolume = 0;      ///< points * h^3
-    int components = 0;        ///< 6-connected pieces
-    Index exactEvaluations = 0;///< winding-number queries evaluated (the rest were filled)
+    Index points = 0;            ///< material points (voxels inside)
+    Real voxelVolume = 0;        ///< points * h^3
+    int components = 0;          ///< 6-connected pieces
+    Index exactEvaluations = 0;  ///< winding-number queries evaluated (the rest were filled)
     double seconds = 0;
 };
 
@@ -55,8 +55,7 @@ std::size_t estimateLatticeBytes(Index gridCells, Index points);
 /// bounds, and one empty point of padding is added on each side, so dims = n + 2 and
 /// originWorld = bounds.centre() - h (dims - 1) / 2; point u sits at originWorld + h u.
 /// The result is identical for any thread count.
-Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings,
-                 VoxeliseReport* report = nullptr);
+Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, VoxeliseReport* report = nullptr);
 
 /// How windingNumbers() evaluates the sum of solid angles.
 enum class WindingEvaluation {

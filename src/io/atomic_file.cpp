@@ -71,8 +71,7 @@ fs::path temporaryPathFor(const fs::path& target) {
     return target.parent_path() / name;
 }
 
-void writeFileAtomically(const fs::path& target,
-                         const std::function<void(const fs::path& tmpPath)>& write) {
+void writeFileAtomically(const fs::path& target, const std::function<void(const fs::path& tmpPath)>& write) {
     const fs::path tmp = temporaryPathFor(target);
     const int slot = registerPending(tmp.string());
     auto fail = [&](const std::string& why) {

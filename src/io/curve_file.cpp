@@ -44,8 +44,7 @@ std::vector<Vec3> parseCurveText(const std::string& text, const std::string& nam
             p = endp;
         }
         if (count == 0) continue;
-        if (count != 3)
-            throw InputError(name, where, "expected three numbers \"x y z\", got " + std::to_string(count));
+        if (count != 3) throw InputError(name, where, "expected three numbers \"x y z\", got " + std::to_string(count));
         curve.emplace_back(v[0], v[1], v[2]);
     }
     if (curve.size() < 3)

@@ -21,7 +21,6 @@ std::vector<Vec3> readCurveFile(const std::filesystem::path& path);
 std::vector<Vec3> parseCurveText(const std::string& text, const std::string& name);
 
 /// Writes a curve file (17 significant digits: reads back exactly), atomically.
-void writeCurveFile(const std::filesystem::path& path, const std::vector<Vec3>& curve,
-                    const std::string& comment = "");
+void writeCurveFile(const std::filesystem::path& path, const std::vector<Vec3>& curve, const std::string& comment = "");
 
 }  // namespace dgv

@@ -100,8 +100,9 @@ void writeMeshCacheFrame(const fs::path& path, MeshCacheFormat format, const Mes
             std::snprintf(line, sizeof line, "vn %.6g %.6g %.6g\n", p.x(), p.y(), p.z());
             o << line;
         }
-        for (const auto& t : tris) o << "f " << t[0] + 1 << "//" << t[0] + 1 << " " << t[1] + 1 << "//" << t[1] + 1 << " "
-                                     << t[2] + 1 << "//" << t[2] + 1 << "\n";
+        for (const auto& t : tris)
+            o << "f " << t[0] + 1 << "//" << t[0] + 1 << " " << t[1] + 1 << "//" << t[1] + 1 << " " << t[2] + 1 << "//"
+              << t[2] + 1 << "\n";
         o << kObjEnd << "\n";
         out = o.str();
     }
@@ -120,17 +121,22 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     const std::string prefix = format == MeshCacheFormat::Ply ? "comment " : "# ";
     for (int lines = 0; std::getline(in, line) && lines < 64; ++lines) {
         headerBytes += line.size() + 1;
-        if (line.rfind(prefix + "dgv_frame ", 0) == 0) gotFrame = line.substr(prefix.size() + 10);
-        else if (line.rfind(prefix + "dgv_key ", 0) == 0) gotKey = line.substr(prefix.size() + 8);
-        else if (line.rfind("element vertex ", 0) == 0) vertices = std::strtoull(line.c_str() + 15, nullptr, 10);
-        else if (line.rfind("element face ", 0) == 0) faces = std::strtoull(line.c_str() + 13, nullptr, 10);
+        if (line.rfind(prefix + "dgv_frame ", 0) == 0)
+            gotFrame = line.substr(prefix.size() + 10);
+        else if (line.rfind(prefix + "dgv_key ", 0) == 0)
+            gotKey = line.substr(prefix.size() + 8);
+        else if (line.rfind("element vertex ", 0) == 0)
+            vertices = std::strtoull(line.c_str() + 15, nullptr, 10);
+        else if (line.rfind("element face ", 0) == 0)
+            faces = std::strtoull(line.c_str() + 13, nullptr, 10);
         else if (line == "end_header") {
             ended = true;
             break;
         }
         if (format == MeshCacheFormat::Obj && !gotKey.empty()) break;
     }
-    if (gotFrame != std::to_string(frame)) return gotFrame.empty() ? "has no dgv frame (not written by dgv)" : "holds frame " + gotFrame;
+    if (gotFrame != std::to_string(frame))
+        return gotFrame.empty() ? "has no dgv frame (not written by dgv)" : "holds frame " + gotFrame;
     if (gotKey != key) return "is of another version of the scene";
     if (format == MeshCacheFormat::Ply) {
         if (!ended || size != headerBytes + vertices * kPlyVertexBytes + faces * kPlyFaceBytes) return "is truncated";

@@ -25,13 +25,13 @@ MeshCacheFormat meshCacheFormatFromName(const std::string& name, const std::stri
 const char* meshCacheExtension(MeshCacheFormat format);
 
 struct MeshCacheFrame {
-    std::string object;                         ///< the object's name
+    std::string object;  ///< the object's name
     int frame = 0;
-    std::string key;                            ///< the scene's frame key (io/state_file.hpp)
+    std::string key;  ///< the scene's frame key (io/state_file.hpp)
     const std::vector<Vec3>* positions = nullptr;
     const std::vector<std::array<int, 3>>* triangles = nullptr;
-    const std::vector<Real>* contact = nullptr; ///< per vertex in [0, 1], or null (all 0)
-    Vec3 colour = Vec3(0.8, 0.8, 0.8);          ///< linear RGB
+    const std::vector<Real>* contact = nullptr;  ///< per vertex in [0, 1], or null (all 0)
+    Vec3 colour = Vec3(0.8, 0.8, 0.8);           ///< linear RGB
 };
 
 /// <dir>/<object>.####.<ext>

@@ -95,8 +95,10 @@ void checkOffFile(const fs::path& path) {
     const bool offMagic = magic.size() >= 3 && magic.size() <= 6 && magic.compare(magic.size() - 3, 3, "OFF") == 0;
     if (!offMagic && ext != ".off") return;
     std::size_t first = 0;  // where the counts start in `words`
-    if (offMagic && words.size() > 1) first = 1;  // "OFF 8 6 12"
-    else if (offMagic && !nextLine(words)) fail("the OFF header has no vertex and face counts");
+    if (offMagic && words.size() > 1)
+        first = 1;  // "OFF 8 6 12"
+    else if (offMagic && !nextLine(words))
+        fail("the OFF header has no vertex and face counts");
     if (words.size() < first + 2) fail("expected the OFF header's vertex and face counts");
     auto count = [&](const std::string& w, const char* what) {
         if (w.empty() || w.size() > 15 || w.find_first_not_of("0123456789") != std::string::npos)
@@ -115,11 +117,13 @@ void checkOffFile(const fs::path& path) {
         return endp && *endp == '\0' && std::isfinite(v);
     };
     for (std::size_t i = 0; i < nv; ++i) {
-        if (!nextLine(words)) fail("the file ends after " + std::to_string(i) + " of " + std::to_string(nv) + " vertices");
+        if (!nextLine(words))
+            fail("the file ends after " + std::to_string(i) + " of " + std::to_string(nv) + " vertices");
         double v = 0;
         if (words.size() < 3) fail("a vertex needs 3 coordinates");
         for (int k = 0; k < 3; ++k)
-            if (!number(words[static_cast<std::size_t>(k)], v)) fail("vertex coordinate '" + words[static_cast<std::size_t>(k)] + "' is not a finite number");
+            if (!number(words[static_cast<std::size_t>(k)], v))
+                fail("vertex coordinate '" + words[static_cast<std::size_t>(k)] + "' is not a finite number");
     }
     for (std::size_t f = 0; f < nf; ++f) {
         if (!nextLine(words)) fail("the file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");
@@ -182,8 +186,8 @@ void checkPlyHeader(const fs::path& path) {
     if (words[1] != "ascii" && words[1] != "binary_little_endian" && words[1] != "binary_big_endian")
         fail("unknown PLY format '" + words[1] + "' (expected ascii, binary_little_endian or binary_big_endian)");
     if (words[2] != "1.0") fail("PLY version '" + words[2] + "' (only 1.0 exists)");
-    static const std::set<std::string> kTypes = {"char",  "uchar",  "short", "ushort", "int",   "uint",
-                                                 "float", "double", "int8",  "uint8",  "int16", "uint16",
+    static const std::set<std::string> kTypes = {"char",  "uchar",  "short",   "ushort", "int",   "uint",
+                                                 "float", "double", "int8",    "uint8",  "int16", "uint16",
                                                  "int32", "uint32", "float32", "float64"};
     auto type = [&](const std::string& t) {
         if (!kTypes.count(t)) fail("unknown PLY property type '" + t + "'");
@@ -229,22 +233,22 @@ struct Collector {
     MeshImportReport report;
     std::size_t meshesSelected = 0;  ///< with or without triangles
 
-    Collector(const aiScene* s, const std::string& p, const std::string& w)
-        : scene(s), path(p), wanted(w) {}
+    Collector(const aiScene* s, const std::string& p, const std::string& w) : scene(s), path(p), wanted(w) {}
 
     void addMesh(const aiMesh* m, const Mat4& worldFromMesh) {
         const std::string name = str(m->mName).empty() ? "<unnamed>" : str(m->mName);
         std::size_t triangles = 0;
         for (unsigned f = 0; f < m->mNumFaces; ++f) {
             const aiFace& face = m->mFaces[f];
-            if (face.mNumIndices == 3 && face.mIndices) ++triangles;
-            else ++report.nonTriangleFaces;
+            if (face.mNumIndices == 3 && face.mIndices)
+                ++triangles;
+            else
+                ++report.nonTriangleFaces;
         }
         ++meshesSelected;
         if (triangles == 0) return;
         ++report.meshesMerged;
-        if (!m->mVertices)
-            throw InputError(path, "", "mesh '" + name + "' has faces but no vertex positions");
+        if (!m->mVertices) throw InputError(path, "", "mesh '" + name + "' has faces but no vertex positions");
         if (mesh.vertices.size() + m->mNumVertices > kMaxVertices)
             throw InputError(path, "", "more than 2^31 vertices after instancing");
 
@@ -256,12 +260,13 @@ struct Collector {
             const aiVector3D& q = m->mVertices[v];
             const Vec3 local(q.x, q.y, q.z);
             if (!allFiniteNoTrap(local))
-                throw InputError(path, "", "mesh '" + name + "' vertex " + std::to_string(v) +
-                                               " has a non-finite coordinate");
+                throw InputError(path, "",
+                                 "mesh '" + name + "' vertex " + std::to_string(v) + " has a non-finite coordinate");
             const Vec3 world = linear * local + translation;
             if (!allFiniteNoTrap(world))
-                throw InputError(path, "", "mesh '" + name + "' vertex " + std::to_string(v) +
-                                               " is not finite after the node transforms");
+                throw InputError(
+                    path, "",
+                    "mesh '" + name + "' vertex " + std::to_string(v) + " is not finite after the node transforms");
             mesh.vertices.push_back(world);
         }
         for (unsigned f = 0; f < m->mNumFaces; ++f) {
@@ -272,9 +277,8 @@ struct Collector {
                 const unsigned idx = face.mIndices[k];
                 if (idx >= m->mNumVertices)
                     throw InputError(path, "",
-                                     "mesh '" + name + "' face " + std::to_string(f) +
-                                         " refers to vertex " + std::to_string(idx) +
-                                         ", out of range (the mesh has " +
+                                     "mesh '" + name + "' face " + std::to_string(f) + " refers to vertex " +
+                                         std::to_string(idx) + ", out of range (the mesh has " +
                                          std::to_string(m->mNumVertices) + " vertices)");
                 t[static_cast<std::size_t>(k)] = base + static_cast<int>(idx);
             }
@@ -286,12 +290,11 @@ struct Collector {
     void walk(const aiNode* node, const Mat4& parent, bool selected, int depth) {
         if (!node) return;
         if (depth > kMaxNodeDepth)
-            throw InputError(path, "", "the node hierarchy is deeper than " +
-                                           std::to_string(kMaxNodeDepth) + " levels (a cycle?)");
+            throw InputError(
+                path, "", "the node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) + " levels (a cycle?)");
         const aiMatrix4x4& a = node->mTransformation;
         Mat4 local;
-        local << a.a1, a.a2, a.a3, a.a4, a.b1, a.b2, a.b3, a.b4, a.c1, a.c2, a.c3, a.c4, a.d1, a.d2,
-            a.d3, a.d4;
+        local << a.a1, a.a2, a.a3, a.a4, a.b1, a.b2, a.b3, a.b4, a.c1, a.c2, a.c3, a.c4, a.d1, a.d2, a.d3, a.d4;
         if (!allFiniteNoTrap(local))
             throw InputError(path, "", "node '" + str(node->mName) + "' has a non-finite transform");
         const Mat4 world = parent * local;
@@ -299,29 +302,25 @@ struct Collector {
         for (unsigned i = 0; i < node->mNumMeshes; ++i) {
             const unsigned mi = node->mMeshes ? node->mMeshes[i] : scene->mNumMeshes;
             if (mi >= scene->mNumMeshes || !scene->mMeshes[mi])
-                throw InputError(path, "", "node '" + str(node->mName) +
-                                               "' refers to a mesh that does not exist");
+                throw InputError(path, "", "node '" + str(node->mName) + "' refers to a mesh that does not exist");
             const aiMesh* m = scene->mMeshes[mi];
             if (wanted.empty() || nodeSelected || str(m->mName) == wanted) addMesh(m, world);
         }
         if (node->mNumChildren > 0 && !node->mChildren) return;
-        for (unsigned i = 0; i < node->mNumChildren; ++i)
-            walk(node->mChildren[i], world, nodeSelected, depth + 1);
+        for (unsigned i = 0; i < node->mNumChildren; ++i) walk(node->mChildren[i], world, nodeSelected, depth + 1);
     }
 
     void collectNames(const aiNode* node, std::set<std::string>& names, int depth) const {
         if (!node || depth > kMaxNodeDepth) return;
         if (node->mName.length > 0) names.insert(str(node->mName));
         if (!node->mChildren) return;
-        for (unsigned i = 0; i < node->mNumChildren; ++i)
-            collectNames(node->mChildren[i], names, depth + 1);
+        for (unsigned i = 0; i < node->mNumChildren; ++i) collectNames(node->mChildren[i], names, depth + 1);
     }
 
     std::string availableNames() const {
         std::set<std::string> names;
         for (unsigned i = 0; i < scene->mNumMeshes; ++i)
-            if (scene->mMeshes[i] && scene->mMeshes[i]->mName.length > 0)
-                names.insert(str(scene->mMeshes[i]->mName));
+            if (scene->mMeshes[i] && scene->mMeshes[i]->mName.length > 0) names.insert(str(scene->mMeshes[i]->mName));
         collectNames(scene->mRootNode, names, 0);
         if (names.empty()) return "the file names no meshes or nodes";
         std::string list;
@@ -355,11 +354,10 @@ void weldByPosition(TriangleMesh& mesh) {
     std::vector<int> rep(n);  // representative (first in sorted order) of each position
     for (std::size_t i = 0; i < n; ++i) {
         const int v = order[i];
-        rep[static_cast<std::size_t>(v)] =
-            (i > 0 && mesh.vertices[static_cast<std::size_t>(order[i - 1])] ==
-                          mesh.vertices[static_cast<std::size_t>(v)])
-                ? rep[static_cast<std::size_t>(order[i - 1])]
-                : v;
+        rep[static_cast<std::size_t>(v)] = (i > 0 && mesh.vertices[static_cast<std::size_t>(order[i - 1])] ==
+                                                         mesh.vertices[static_cast<std::size_t>(v)])
+                                               ? rep[static_cast<std::size_t>(order[i - 1])]
+                                               : v;
     }
     // New ids in order of first use by the triangles: deterministic and cache-friendly.
     std::vector<int> newId(n, -1);
@@ -396,8 +394,7 @@ double unitScaleOf(const aiScene* scene) {
 
 }  // namespace
 
-TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
-                        MeshImportReport* report) {
+TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, MeshImportReport* report) {
     const std::string p = path.string();
     checkReadable(path);
     checkOffFile(path);
@@ -408,15 +405,13 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
     // Positions are all dgv uses: drop the rest before post-processing so that vertices that
     // differ only in normals or UVs are joined, and less memory is spent.
     importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
-                                aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS |
-                                    aiComponent_COLORS | aiComponent_TEXCOORDS |
-                                    aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
-                                    aiComponent_TEXTURES | aiComponent_LIGHTS |
-                                    aiComponent_CAMERAS);
+                                aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
+                                    aiComponent_TEXCOORDS | aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
+                                    aiComponent_TEXTURES | aiComponent_LIGHTS | aiComponent_CAMERAS);
     // Read without post-processing, drop what dgv ignores (lights and cameras without nodes
     // would fail validation), then validate and triangulate.
-    const unsigned flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate |
-                           aiProcess_JoinIdenticalVertices | aiProcess_SortByPType;
+    const unsigned flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                           aiProcess_SortByPType;
     const aiScene* scene = nullptr;
     try {
         scene = importer.ReadFile(p, 0);
@@ -432,8 +427,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
         std::replace(why.begin(), why.end(), '\n', ' ');
         while (!why.empty() && why.back() == ' ') why.pop_back();
         // Validation's words for a scene without faces, in dgv's.
-        if (why.find("contains no faces") != std::string::npos ||
-            why.find("has no faces") != std::string::npos)
+        if (why.find("contains no faces") != std::string::npos || why.find("has no faces") != std::string::npos)
             throw InputError(p, "", "no triangles (the file holds only points and lines)");
         if (why.find("mNumMeshes is 0") != std::string::npos)
             throw InputError(p, "", "no triangles (the file holds no meshes)");
@@ -446,8 +440,9 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
     root.topLeftCorner<3, 3>() *= unitScale;
     if (unitScale != 1 && options.logUnitScale) {
         char line[200];
-        std::snprintf(line, sizeof line, "the file's unit is %.6g m (FBX UnitScaleFactor %.6g); scaled by %.6g to metres",
-                      unitScale, unitScale * 100, unitScale);
+        std::snprintf(line, sizeof line,
+                      "the file's unit is %.6g m (FBX UnitScaleFactor %.6g); scaled by %.6g to metres", unitScale,
+                      unitScale * 100, unitScale);
         logInfo(p + ": " + line);
     }
     Collector c(scene, p, options.meshName);
@@ -456,14 +451,12 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
         c.walk(scene->mRootNode, root, false, 0);
     } else {
         for (unsigned i = 0; i < scene->mNumMeshes; ++i)
-            if (scene->mMeshes[i] &&
-                (options.meshName.empty() || str(scene->mMeshes[i]->mName) == options.meshName))
+            if (scene->mMeshes[i] && (options.meshName.empty() || str(scene->mMeshes[i]->mName) == options.meshName))
                 c.addMesh(scene->mMeshes[i], root);
     }
 
     if (!options.meshName.empty() && c.meshesSelected == 0)
-        throw InputError(p, "", "no mesh or node named '" + options.meshName + "'; " +
-                                    c.availableNames());
+        throw InputError(p, "", "no mesh or node named '" + options.meshName + "'; " + c.availableNames());
     if (c.mesh.triangles.empty()) {
         if (c.report.nonTriangleFaces > 0)
             throw InputError(p, "", "no triangles (the file holds only points and lines)");
@@ -475,19 +468,20 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options,
     const std::size_t before = mesh.triangles.size();
     c.report.degenerateDropped = dropDegenerateTriangles(mesh);
     if (mesh.triangles.empty())
-        throw InputError(p, "", "no triangles (all " + std::to_string(before) +
-                                    " triangles are degenerate)");
+        throw InputError(p, "", "no triangles (all " + std::to_string(before) + " triangles are degenerate)");
     if (options.orientOutward) {
         c.report.orientation = orientOutward(mesh);
         const OrientReport& o = c.report.orientation;
         if (o.flippedParts > 0) {
             char line[200];
             if (o.parts == 1)
-                std::snprintf(line, sizeof line, "the mesh is inside out (signed volume %.4g); its triangles were turned around",
+                std::snprintf(line, sizeof line,
+                              "the mesh is inside out (signed volume %.4g); its triangles were turned around",
                               o.volumeBefore);
             else
-                std::snprintf(line, sizeof line, "%zu of its %zu parts are inside out; their triangles were turned around",
-                              o.flippedParts, o.parts);
+                std::snprintf(line, sizeof line,
+                              "%zu of its %zu parts are inside out; their triangles were turned around", o.flippedParts,
+                              o.parts);
             logWarning(p + ": " + line);
         }
     }

@@ -12,7 +12,7 @@
 namespace dgv {
 
 struct MeshImportOptions {
-    std::string meshName;   ///< import only meshes (or nodes) with this name; empty: all
+    std::string meshName;  ///< import only meshes (or nodes) with this name; empty: all
     /// Turn inside-out parts around (orientOutward), with a warning naming the file. Off for
     /// imports that use only the vertices (a pin's vertex group).
     bool orientOutward = true;
@@ -22,11 +22,11 @@ struct MeshImportOptions {
 };
 
 struct MeshImportReport {
-    std::size_t meshesMerged = 0;       ///< mesh instances (mesh x node) that gave triangles
+    std::size_t meshesMerged = 0;  ///< mesh instances (mesh x node) that gave triangles
     std::size_t degenerateDropped = 0;
-    std::size_t nonTriangleFaces = 0;   ///< points and lines ignored
-    OrientReport orientation;           ///< parts turned around (orientOutward)
-    double unitScale = 1;               ///< metres per file unit applied (FBX UnitScaleFactor / 100)
+    std::size_t nonTriangleFaces = 0;  ///< points and lines ignored
+    OrientReport orientation;          ///< parts turned around (orientOutward)
+    double unitScale = 1;              ///< metres per file unit applied (FBX UnitScaleFactor / 100)
 };
 
 /// Imports the file: scales it to metres by the file's unit (FBX's UnitScaleFactor, with one

@@ -62,8 +62,8 @@ extern "C" void pngFlushMemory(png_structp) {}
 /// 8-bit samples, or 16-bit samples in host (little-endian) order.
 struct EncodeJob {
     int width, height, bitDepth;
-    int channelsIn;   // 4 (RGBA in memory)
-    bool alphaOut;    // write RGBA, else RGB (the 4th sample is stripped)
+    int channelsIn;  // 4 (RGBA in memory)
+    bool alphaOut;   // write RGBA, else RGB (the 4th sample is stripped)
     int compressionLevel;
     png_bytep* rows;
     png_textp text;
@@ -101,9 +101,9 @@ int encodeRaw(const EncodeJob* job, PngError* err) {
     // (a 1080p frame: 14 vs 22 ms, 288 vs 304 KB; docs/rendering.md).
     if (job->compressionLevel >= 1 && job->compressionLevel <= 3) png_set_compression_strategy(png, Z_RLE);
     png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
-    png_set_IHDR(png, info, static_cast<png_uint_32>(job->width), static_cast<png_uint_32>(job->height),
-                 job->bitDepth, job->alphaOut ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB,
-                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
+    png_set_IHDR(png, info, static_cast<png_uint_32>(job->width), static_cast<png_uint_32>(job->height), job->bitDepth,
+                 job->alphaOut ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
     if (job->textCount > 0) png_set_text(png, info, job->text, job->textCount);
     png_write_info(png, info);
@@ -153,10 +153,9 @@ int decodeRaw(DecodeJob* job, PngError* err) {
 
     const int colorType = png_get_color_type(job->png, job->info);
     const int bitDepth = png_get_bit_depth(job->png, job->info);
-    png_set_expand(job->png);  // palette -> RGB, grey < 8 bits -> 8, tRNS -> alpha
+    png_set_expand(job->png);                        // palette -> RGB, grey < 8 bits -> 8, tRNS -> alpha
     if (bitDepth < 16) png_set_expand_16(job->png);  // 8-bit v -> v*257
-    if (colorType == PNG_COLOR_TYPE_GRAY || colorType == PNG_COLOR_TYPE_GRAY_ALPHA)
-        png_set_gray_to_rgb(job->png);
+    if (colorType == PNG_COLOR_TYPE_GRAY || colorType == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_gray_to_rgb(job->png);
     if (!(colorType & PNG_COLOR_MASK_ALPHA) && !png_get_valid(job->png, job->info, PNG_INFO_tRNS))
         png_set_add_alpha(job->png, 0xffff, PNG_FILLER_AFTER);
     png_set_swap(job->png);  // big-endian file samples -> host order
@@ -179,8 +178,8 @@ int decodeRaw(DecodeJob* job, PngError* err) {
 }
 
 void finishDecode(DecodeJob* job) {
-    if (job->png) png_destroy_read_struct(&job->png, job->info ? &job->info : nullptr,
-                                          job->endInfo ? &job->endInfo : nullptr);
+    if (job->png)
+        png_destroy_read_struct(&job->png, job->info ? &job->info : nullptr, job->endInfo ? &job->endInfo : nullptr);
     std::free(job->rows);
     std::free(job->pixels);
     job->rows = nullptr;
@@ -190,9 +189,8 @@ void finishDecode(DecodeJob* job) {
 void validateImage(const Image& image) {
     if (image.width <= 0 || image.height <= 0 ||
         image.rgba.size() != static_cast<std::size_t>(image.width) * image.height * 4) {
-        throw RuntimeError("PNG: invalid image (" + std::to_string(image.width) + "x" +
-                           std::to_string(image.height) + ", " + std::to_string(image.rgba.size()) +
-                           " samples)");
+        throw RuntimeError("PNG: invalid image (" + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                           ", " + std::to_string(image.rgba.size()) + " samples)");
     }
 }
 
@@ -208,8 +206,7 @@ EncodeJob prepareEncode(const Image& image, const PngWriteOptions& options, Enco
     if (options.bitDepth != 8 && options.bitDepth != 16)
         throw RuntimeError("PNG: bit depth must be 8 or 16, got " + std::to_string(options.bitDepth));
     if (options.compressionLevel < 0 || options.compressionLevel > 9)
-        throw RuntimeError("PNG: compression level must be 0..9, got " +
-                           std::to_string(options.compressionLevel));
+        throw RuntimeError("PNG: compression level must be 0..9, got " + std::to_string(options.compressionLevel));
     const std::size_t rowSamples = static_cast<std::size_t>(image.width) * 4;
     buffers.rows.resize(static_cast<std::size_t>(image.height));
     if (options.bitDepth == 8) {
@@ -220,13 +217,14 @@ EncodeJob prepareEncode(const Image& image, const PngWriteOptions& options, Enco
     } else {
         // libpng takes non-const rows but does not modify them when writing.
         auto* base = reinterpret_cast<png_bytep>(const_cast<std::uint16_t*>(image.rgba.data()));
-        for (int y = 0; y < image.height; ++y)
-            buffers.rows[static_cast<std::size_t>(y)] = base + rowSamples * 2 * y;
+        for (int y = 0; y < image.height; ++y) buffers.rows[static_cast<std::size_t>(y)] = base + rowSamples * 2 * y;
     }
     for (const auto& [key, value] : options.text) {
         if (key.empty() || key.size() > 79 || key.front() == ' ' || key.back() == ' ')
-            throw RuntimeError("PNG: tEXt keyword must be 1-79 characters without leading or "
-                               "trailing spaces: '" + key + "'");
+            throw RuntimeError(
+                "PNG: tEXt keyword must be 1-79 characters without leading or "
+                "trailing spaces: '" +
+                key + "'");
         png_text t{};
         t.compression = PNG_TEXT_COMPRESSION_NONE;
         t.key = const_cast<char*>(key.c_str());
@@ -309,8 +307,7 @@ Image readPng(const fs::path& path, std::vector<std::pair<std::string, std::stri
                 png_textp chunks = nullptr;
                 const int n = png_get_text(job.png, info, &chunks, nullptr);
                 for (int i = 0; i < n; ++i) {
-                    text->emplace_back(chunks[i].key,
-                                       std::string(chunks[i].text, chunks[i].text_length));
+                    text->emplace_back(chunks[i].key, std::string(chunks[i].text, chunks[i].text_length));
                 }
             }
         }

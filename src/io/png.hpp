@@ -18,8 +18,8 @@
 namespace dgv {
 
 struct PngWriteOptions {
-    int bitDepth = 8;        ///< 8 or 16
-    bool alpha = true;       ///< RGBA; false writes RGB (alpha dropped)
+    int bitDepth = 8;   ///< 8 or 16
+    bool alpha = true;  ///< RGBA; false writes RGB (alpha dropped)
     /// zlib level: 0 stored; 1-3 run-length matches only (Z_RLE: the fastest, and on rendered
     /// frames about as small as the default strategy at level 3); 4-9 the default strategy.
     int compressionLevel = 3;
@@ -34,8 +34,7 @@ std::vector<unsigned char> encodePng(const Image& image, const PngWriteOptions& 
 
 /// Reads any PNG (8/16-bit, grey/RGB/RGBA/palette) into a 16-bit RGBA Image. InputError naming
 /// the file on failure. `text`, when given, receives the tEXt chunks.
-Image readPng(const std::filesystem::path& path,
-              std::vector<std::pair<std::string, std::string>>* text = nullptr);
+Image readPng(const std::filesystem::path& path, std::vector<std::pair<std::string, std::string>>* text = nullptr);
 
 /// Encodes and writes PNGs on one worker thread while the caller renders the next frame: one
 /// frame in flight, written in submission order, bytes identical to writePng. An error in the

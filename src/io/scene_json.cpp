@@ -23,11 +23,16 @@ using Json = nlohmann::json;
 
 std::string describe(const Json& v) {
     switch (v.type()) {
-        case Json::value_t::null: return "null";
-        case Json::value_t::boolean: return v.get<bool>() ? "true" : "false";
-        case Json::value_t::string: return "\"" + v.get<std::string>() + "\"";
-        case Json::value_t::array: return "an array";
-        case Json::value_t::object: return "an object";
+        case Json::value_t::null:
+            return "null";
+        case Json::value_t::boolean:
+            return v.get<bool>() ? "true" : "false";
+        case Json::value_t::string:
+            return "\"" + v.get<std::string>() + "\"";
+        case Json::value_t::array:
+            return "an array";
+        case Json::value_t::object:
+            return "an object";
         default: {
             std::string s = v.dump();
             return s.size() > 40 ? s.substr(0, 40) + "..." : s;
@@ -101,7 +106,8 @@ public:
         if (!v->is_number_integer()) fail(key, "expected an integer, got " + describe(*v));
         long long x = v->get<long long>();
         if (x < lo || x > hi)
-            fail(key, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + describe(*v));
+            fail(key, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+                          describe(*v));
         return static_cast<int>(x);
     }
     bool boolean(const std::string& key, bool def) {
@@ -186,8 +192,10 @@ public:
                 if (d < bestDist) bestDist = d, best = k;
             }
             std::string what = "unknown key";
-            if (!best.empty()) what += " (did you mean '" + best + "'?)";
-            else what += "; known keys here: " + join(std::vector<std::string>(mKnown.begin(), mKnown.end()));
+            if (!best.empty())
+                what += " (did you mean '" + best + "'?)";
+            else
+                what += "; known keys here: " + join(std::vector<std::string>(mKnown.begin(), mKnown.end()));
             throw InputError(mFile, at(it.key()), what);
         }
     }
@@ -208,8 +216,10 @@ private:
 std::string lineColumn(const std::string& text, std::size_t byte) {
     std::size_t line = 1, col = 1;
     for (std::size_t i = 0; i < byte && i < text.size(); ++i) {
-        if (text[i] == '\n') ++line, col = 1;
-        else ++col;
+        if (text[i] == '\n')
+            ++line, col = 1;
+        else
+            ++col;
     }
     return "line " + std::to_string(line) + ", column " + std::to_string(col);
 }
@@ -230,7 +240,8 @@ TransformDesc readTransform(ObjectReader& r) {
         } else {
             t.scale = r.vec3("scale", t.scale);
             for (int i = 0; i < 3; ++i)
-                if (!(std::abs(t.scale[i]) > 0)) r.fail("scale[" + std::to_string(i) + "]", "expected a non-zero scale");
+                if (!(std::abs(t.scale[i]) > 0))
+                    r.fail("scale[" + std::to_string(i) + "]", "expected a non-zero scale");
         }
     }
     return t;
@@ -296,7 +307,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         auto p = msg.find("parse error");
         if (p != std::string::npos) msg = msg.substr(p);
         if (text.find_first_not_of(" \t\r\n") == std::string::npos) msg = "the file is empty";
-        throw InputError(file, "", "malformed JSON: " + msg + " (" + lineColumn(text, e.byte > 0 ? e.byte - 1 : 0) + ")");
+        throw InputError(file, "",
+                         "malformed JSON: " + msg + " (" + lineColumn(text, e.byte > 0 ? e.byte - 1 : 0) + ")");
     } catch (const Json::exception& e) {
         // e.g. out_of_range.406, a number too large for a double ("1E1111111"; found by fuzz_scene)
         std::string msg = e.what();
@@ -330,8 +342,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.collision.detect = detect == "gln" ? CollisionDesc::Detect::Gln : CollisionDesc::Detect::Sdf;
         s.collision.coarseToFine = c.boolean("coarse_to_fine", false);
         s.collision.objects = c.boolean("objects", s.collision.objects);
-        s.collision.distance = c.choice("distance", "grid", {"grid", "exact"}) == "exact" ? CollisionDesc::Distance::Exact
-                                                                                           : CollisionDesc::Distance::Grid;
+        s.collision.distance = c.choice("distance", "grid", {"grid", "exact"}) == "exact"
+                                   ? CollisionDesc::Distance::Exact
+                                   : CollisionDesc::Distance::Grid;
         s.collision.friction = c.number("friction", s.collision.friction, 0, 1);
         s.collision.restitution = c.number("restitution", s.collision.restitution, 0, 1);
     });
@@ -422,14 +435,16 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.velocity = o.vec3("velocity", d.velocity);
         d.spinDegrees = o.vec3("spin", d.spinDegrees);
         o.object("pin", [&](ObjectReader& p) {
-            const bool box = p.has("min") || p.has("max"), ball = p.has("centre") || p.has("radius"), group = p.has("group");
+            const bool box = p.has("min") || p.has("max"), ball = p.has("centre") || p.has("radius"),
+                       group = p.has("group");
             if (int(box) + int(ball) + int(group) != 1)
                 p.fail("", "give a box ('min' and 'max'), a ball ('centre' and 'radius') or a vertex group ('group')");
             if (group) {
                 if (d.isPrimitive) p.fail("group", "a vertex group needs a mesh object (a primitive has none)");
                 d.pin.kind = PinDesc::Kind::Group;
                 d.pin.group = p.string("group", "");
-                if (d.pin.group.empty()) p.fail("group", "expected the name of a mesh or node in the object's mesh file");
+                if (d.pin.group.empty())
+                    p.fail("group", "expected the name of a mesh or node in the object's mesh file");
             } else if (box) {
                 d.pin.kind = PinDesc::Kind::Box;
                 d.pin.min = p.vec3("min", Vec3::Zero());
@@ -457,7 +472,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.segments = g.integer("segments", d.segments, 3, 10000000);
         });
         if (const Json* m = c.get("motion")) {
-            if (!m->is_array() || m->empty()) c.fail("motion", "expected an array of [frame, [x, y, z]] keys, got " + describe(*m));
+            if (!m->is_array() || m->empty())
+                c.fail("motion", "expected an array of [frame, [x, y, z]] keys, got " + describe(*m));
             for (std::size_t k = 0; k < m->size(); ++k) {
                 const Json& e = (*m)[k];
                 const std::string key = "motion[" + std::to_string(k) + "]";
@@ -466,7 +482,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 const Real f = c.checkNumber(key + "[0]", e[0], -HUGE_VAL, HUGE_VAL, false);
                 Vec3 v;
                 for (int a = 0; a < 3; ++a)
-                    v[a] = c.checkNumber(key + "[1][" + std::to_string(a) + "]", e[1][static_cast<std::size_t>(a)], -HUGE_VAL, HUGE_VAL, false);
+                    v[a] = c.checkNumber(key + "[1][" + std::to_string(a) + "]", e[1][static_cast<std::size_t>(a)],
+                                         -HUGE_VAL, HUGE_VAL, false);
                 if (!d.motion.empty() && f <= d.motion.back().first) c.fail(key, "key frames must increase");
                 d.motion.push_back({f, v});
             }
@@ -478,9 +495,11 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     for (std::size_t i = 0; i < s.curves.size(); ++i)
         for (std::size_t j = 0; j < i; ++j)
             if (s.curves[i].name == s.curves[j].name)
-                throw InputError(file, "curves[" + std::to_string(i) + "].name", "duplicate curve name \"" + s.curves[i].name + "\"");
+                throw InputError(file, "curves[" + std::to_string(i) + "].name",
+                                 "duplicate curve name \"" + s.curves[i].name + "\"");
     if (!s.curves.empty() && s.curves.size() != 2)
-        r.fail("curves", "expected exactly 2 curves (their linking number is measured), got " + std::to_string(s.curves.size()));
+        r.fail("curves",
+               "expected exactly 2 curves (their linking number is measured), got " + std::to_string(s.curves.size()));
     if (!s.curves.empty() && !s.objects.empty())
         r.fail("curves", "a scene has either objects or curves, not both (not supported yet)");
     r.object("gln", [&](ObjectReader& g) {
@@ -488,7 +507,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             if (!t->is_array()) g.fail("seed_tolerances", "expected an array of positive numbers, got " + describe(*t));
             s.gln.seedTolerances.clear();
             for (std::size_t k = 0; k < t->size(); ++k)
-                s.gln.seedTolerances.push_back(g.checkNumber("seed_tolerances[" + std::to_string(k) + "]", (*t)[k], 0, 50.0 / 3, true));
+                s.gln.seedTolerances.push_back(
+                    g.checkNumber("seed_tolerances[" + std::to_string(k) + "]", (*t)[k], 0, 50.0 / 3, true));
         }
     });
     if (s.objects.empty() && s.curves.empty()) r.fail("objects", "a scene needs at least one object");
@@ -672,7 +692,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             if (v->is_boolean()) {
                 d.pins = v->get<bool>();
             } else if (!v->is_object()) {
-                g.fail("pins", "expected true, false or an object {\"show\", \"color\", \"point_size\"}, got " + describe(*v));
+                g.fail("pins",
+                       "expected true, false or an object {\"show\", \"color\", \"point_size\"}, got " + describe(*v));
             } else {
                 g.object("pins", [&](ObjectReader& p) {
                     d.pins = p.boolean("show", true);
@@ -691,7 +712,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.overlayGlnColour = o.color("gln_color", d.overlayGlnColour);
             d.overlayLineWidth = o.number("line_width", d.overlayLineWidth, 1, 64);
         });
-        if (static_cast<long long>(d.width) * d.supersample > 16384 || static_cast<long long>(d.height) * d.supersample > 16384)
+        if (static_cast<long long>(d.width) * d.supersample > 16384 ||
+            static_cast<long long>(d.height) * d.supersample > 16384)
             g.fail("supersample", "width and height times supersample must stay within 16384 (the GL limit)");
     });
 
@@ -704,12 +726,16 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.output.vdbSurface = o.boolean("vdb_surface", false);
         if (o.has("mesh")) {
             const Json* m = o.get("mesh");
-            if (m->is_boolean() && !m->get<bool>()) s.output.mesh.clear();
-            else s.output.mesh = o.choice("mesh", "", {"ply", "obj"});
+            if (m->is_boolean() && !m->get<bool>())
+                s.output.mesh.clear();
+            else
+                s.output.mesh = o.choice("mesh", "", {"ply", "obj"});
         }
     });
-    if (outDir.rfind("//", 0) == 0) s.output.dir = (sceneDir / outDir.substr(2)).lexically_normal().string();
-    else s.output.dir = fs::absolute(outDir).lexically_normal().string();
+    if (outDir.rfind("//", 0) == 0)
+        s.output.dir = (sceneDir / outDir.substr(2)).lexically_normal().string();
+    else
+        s.output.dir = fs::absolute(outDir).lexically_normal().string();
 
     r.finish();
     return s;
@@ -725,8 +751,10 @@ SceneDesc loadScene(const fs::path& path) {
         throw InputError(path.string(), "", "is not a regular file (a pipe, device or socket); give a scene file");
     constexpr std::uintmax_t kMaxSceneBytes = 64u << 20;
     if (const std::uintmax_t size = fs::file_size(path, ec); !ec && size > kMaxSceneBytes)
-        throw InputError(path.string(), "", "is " + std::to_string(size >> 20) + " MiB; a scene file is JSON of at most 64 MiB "
-                                             "(meshes and level sets are separate files it names)");
+        throw InputError(path.string(), "",
+                         "is " + std::to_string(size >> 20) +
+                             " MiB; a scene file is JSON of at most 64 MiB "
+                             "(meshes and level sets are separate files it names)");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(path.string(), "", "cannot be read (permission denied?)");
     std::ostringstream ss;

@@ -57,7 +57,8 @@ public:
     template <typename T>
     void array(const std::vector<T>& v) {
         value(static_cast<std::uint64_t>(v.size()));
-        if (!v.empty()) bytes.append(reinterpret_cast<const char*>(static_cast<const void*>(v.data())), v.size() * sizeof(T));
+        if (!v.empty())
+            bytes.append(reinterpret_cast<const char*>(static_cast<const void*>(v.data())), v.size() * sizeof(T));
     }
 };
 
@@ -256,7 +257,8 @@ std::string parseState(const std::string& bytes, StateCheckpoint& out) {
     if (!h.ok) return "truncated: " + std::to_string(bytes.size()) + " bytes";
     if (version != kStateFormatVersion)
         return "format version " + std::to_string(version) + ", this dgv reads " + std::to_string(kStateFormatVersion);
-    if (order != kByteOrder || realSize != sizeof(Real)) return "written on a machine with another byte order or real size";
+    if (order != kByteOrder || realSize != sizeof(Real))
+        return "written on a machine with another byte order or real size";
     out.dgvVersion = h.text();
     out.sceneKey = h.value<std::uint64_t>();
     out.frame = h.value<std::int32_t>();
@@ -265,8 +267,8 @@ std::string parseState(const std::string& bytes, StateCheckpoint& out) {
     if (!h.ok) return "truncated: " + std::to_string(bytes.size()) + " bytes";
     const std::size_t start = h.position();
     if (bytes.size() - start != payloadBytes)
-        return (bytes.size() - start < payloadBytes ? "truncated: " : "trailing bytes: ") + std::to_string(bytes.size()) +
-               " of " + std::to_string(start + payloadBytes) + " bytes";
+        return (bytes.size() - start < payloadBytes ? "truncated: " : "trailing bytes: ") +
+               std::to_string(bytes.size()) + " of " + std::to_string(start + payloadBytes) + " bytes";
     if (checksum(bytes.data() + start, payloadBytes) != sum) return "checksum mismatch (corrupt)";
 
     Reader r(bytes.data() + start, static_cast<std::size_t>(payloadBytes));

@@ -29,13 +29,16 @@
 
 namespace dgv {
 
-inline constexpr std::uint32_t kStateFormatVersion = 8;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load modes' amplitudes; 6: the volume multipliers' prediction; 7: the time in free flight; 8: a re-parametrised body's lattice and surface
+inline constexpr std::uint32_t kStateFormatVersion =
+    8;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load
+        ///< modes' amplitudes; 6: the volume multipliers' prediction; 7: the time in free flight; 8: a re-parametrised
+        ///< body's lattice and surface
 
 struct StateCheckpoint {
-    std::string dgvVersion;                  ///< DGV_VERSION_STRING of the writer
-    std::uint64_t sceneKey = 0;              ///< sceneDynamicsKey of the scene it belongs to
-    int frame = 0;                           ///< the simulation's frame
-    std::vector<std::string> statsRows;      ///< stats.csv rows of frames.start .. frame (no header)
+    std::string dgvVersion;                        ///< DGV_VERSION_STRING of the writer
+    std::uint64_t sceneKey = 0;                    ///< sceneDynamicsKey of the scene it belongs to
+    int frame = 0;                                 ///< the simulation's frame
+    std::vector<std::string> statsRows;            ///< stats.csv rows of frames.start .. frame (no header)
     std::vector<Simulation::ObjectState> objects;  ///< per scene object
     std::vector<std::vector<int>> contactAges;     ///< per scene object (ContactHistory::age)
 };

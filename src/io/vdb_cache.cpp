@@ -57,29 +57,33 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-
-
 std::string sanitise(const std::string& s) {
     std::string out;
     for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '_') ? c : '_';
     return out.empty() ? std::string("object") : out;
 }
 
-void validate(const std::vector<VdbObjectFrame>& objects, const VdbFrameInfo& info,
-              const VdbWriteSettings& settings) {
+void validate(const std::vector<VdbObjectFrame>& objects, const VdbFrameInfo& info, const VdbWriteSettings& settings) {
     auto bad = [](const std::string& where, const std::string& what) { throw InputError("", where, what); };
     if (objects.empty()) bad("vdb", "no object to write");
     for (std::size_t o = 0; o < objects.size(); ++o) {
         const VdbObjectFrame& f = objects[o];
         const std::string w = "vdb: object " + std::to_string(o) + " (" + f.name + ")";
-        if (!f.lattice || !f.cells || !f.positions || !f.restVolumes) bad(w, "lattice, cells, positions and rest volumes are required");
+        if (!f.lattice || !f.cells || !f.positions || !f.restVolumes)
+            bad(w, "lattice, cells, positions and rest volumes are required");
         const std::size_t P = static_cast<std::size_t>(f.lattice->size());
         const std::size_t C = static_cast<std::size_t>(f.cells->size());
         if (!(f.lattice->spacing > 0) || !std::isfinite(f.lattice->spacing)) bad(w, "lattice spacing must be positive");
-        if (f.positions->size() != P) bad(w, "positions: expected " + std::to_string(P) + " entries, got " + std::to_string(f.positions->size()));
-        if (f.velocities && f.velocities->size() != P) bad(w, "velocities: expected " + std::to_string(P) + " entries, got " + std::to_string(f.velocities->size()));
-        if (f.contact && f.contact->size() != P) bad(w, "contact: expected " + std::to_string(P) + " entries, got " + std::to_string(f.contact->size()));
-        if (f.restVolumes->size() != C) bad(w, "rest volumes: expected " + std::to_string(C) + " entries, got " + std::to_string(f.restVolumes->size()));
+        if (f.positions->size() != P)
+            bad(w, "positions: expected " + std::to_string(P) + " entries, got " + std::to_string(f.positions->size()));
+        if (f.velocities && f.velocities->size() != P)
+            bad(w,
+                "velocities: expected " + std::to_string(P) + " entries, got " + std::to_string(f.velocities->size()));
+        if (f.contact && f.contact->size() != P)
+            bad(w, "contact: expected " + std::to_string(P) + " entries, got " + std::to_string(f.contact->size()));
+        if (f.restVolumes->size() != C)
+            bad(w, "rest volumes: expected " + std::to_string(C) + " entries, got " +
+                       std::to_string(f.restVolumes->size()));
         for (Real v0 : *f.restVolumes)
             if (!(v0 > 0) || !std::isfinite(v0)) bad(w, "rest volumes must be positive");
         for (const Vec3& x : *f.positions)
@@ -88,9 +92,12 @@ void validate(const std::vector<VdbObjectFrame>& objects, const VdbFrameInfo& in
             for (const Vec3& x : *f.velocities)
                 if (!allFiniteNoTrap(x)) bad(w, "velocities must be finite");
     }
-    if (!(settings.worldVoxelSize >= 0) || !std::isfinite(settings.worldVoxelSize)) bad("vdb: voxel_size", "must be positive (or 0 for the lattice spacing)");
-    if (!(settings.surfaceHalfWidth >= 1) || !std::isfinite(settings.surfaceHalfWidth)) bad("vdb: surface half width", "must be at least 1 voxel");
-    if (!std::isfinite(info.time) || !(info.fps > 0) || !std::isfinite(info.fps)) bad("vdb", "time must be finite and fps positive");
+    if (!(settings.worldVoxelSize >= 0) || !std::isfinite(settings.worldVoxelSize))
+        bad("vdb: voxel_size", "must be positive (or 0 for the lattice spacing)");
+    if (!(settings.surfaceHalfWidth >= 1) || !std::isfinite(settings.surfaceHalfWidth))
+        bad("vdb: surface half width", "must be at least 1 voxel");
+    if (!std::isfinite(info.time) || !(info.fps > 0) || !std::isfinite(info.fps))
+        bad("vdb", "time must be finite and fps positive");
 }
 
 openvdb::math::Transform::Ptr latticeTransform(Real h, const Vec3& origin) {
@@ -111,17 +118,19 @@ struct WorldGrids {
 };
 
 WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const Vec3& origin,
-                    const openvdb::math::Transform::Ptr& xform, VdbKernel kernel, VdbBinning binning, VdbStageSeconds& stages) {
+                    const openvdb::math::Transform::Ptr& xform, VdbKernel kernel, VdbBinning binning,
+                    VdbStageSeconds& stages) {
     // The numerics are deform/resample's; here each block becomes its leaves.
     std::vector<ResampleInput> bodies;
-    for (const VdbObjectFrame& f : objects) bodies.push_back({f.lattice, f.cells, f.positions, f.velocities, f.contact});
+    for (const VdbObjectFrame& f : objects)
+        bodies.push_back({f.lattice, f.cells, f.positions, f.velocities, f.contact});
     using FloatLeaf = openvdb::FloatTree::LeafNodeType;
     using VecLeaf = openvdb::Vec3STree::LeafNodeType;
     static_assert(FloatLeaf::DIM == kResampleBlockDim && VecLeaf::DIM == kResampleBlockDim, "a block is a leaf");
     constexpr int kLeafVoxels = kResampleBlockVoxels;
     struct BlockOut {
         std::unique_ptr<FloatLeaf> density, contact;  // null: an active tile of the value below
-        std::unique_ptr<VecLeaf> vel, rest;            // null: no active voxel in the block
+        std::unique_ptr<VecLeaf> vel, rest;           // null: no active voxel in the block
         float densityTile = 0, contactTile = 0;
         Index active = 0;
         Real densitySum = 0;
@@ -140,7 +149,8 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
             const openvdb::Coord origin3(blk.origin[0], blk.origin[1], blk.origin[2]);
             auto newLeaf = [&](auto* type) {  // values uninitialised: every one is written below
                 using LeafT = std::remove_pointer_t<decltype(type)>;
-                auto leaf = std::make_unique<LeafT>(openvdb::PartialCreate(), origin3, typename LeafT::ValueType(0.f), false);
+                auto leaf =
+                    std::make_unique<LeafT>(openvdb::PartialCreate(), origin3, typename LeafT::ValueType(0.f), false);
                 leaf->setValueMask(mask);
                 return leaf;
             };
@@ -163,8 +173,14 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
                 std::memcpy(leaf->buffer().data(), x.data(), sizeof(float) * kLeafVoxels);
                 return leaf;
             };
-            if (uniform(blk.density)) o.densityTile = blk.density[0]; else o.density = leafOf(blk.density);
-            if (uniform(blk.contact)) o.contactTile = blk.contact[0]; else o.contact = leafOf(blk.contact);
+            if (uniform(blk.density))
+                o.densityTile = blk.density[0];
+            else
+                o.density = leafOf(blk.density);
+            if (uniform(blk.contact))
+                o.contactTile = blk.contact[0];
+            else
+                o.contact = leafOf(blk.contact);
         });
     stages.cells = rr.cellsSeconds;
     stages.bins = rr.binsSeconds;
@@ -183,8 +199,14 @@ WorldGrids resample(const std::vector<VdbObjectFrame>& objects, Real vs, const V
         g.activeVoxels += o.active;
         g.densitySum += o.densitySum;
         const openvdb::Coord at = o.vel->origin();
-        if (o.density) g.density->tree().addLeaf(o.density.release()); else g.density->tree().addTile(1, at, o.densityTile, true);
-        if (o.contact) g.contact->tree().addLeaf(o.contact.release()); else g.contact->tree().addTile(1, at, o.contactTile, true);
+        if (o.density)
+            g.density->tree().addLeaf(o.density.release());
+        else
+            g.density->tree().addTile(1, at, o.densityTile, true);
+        if (o.contact)
+            g.contact->tree().addLeaf(o.contact.release());
+        else
+            g.contact->tree().addTile(1, at, o.contactTile, true);
         g.vel->tree().addLeaf(o.vel.release());
         g.rest->tree().addLeaf(o.rest.release());
     }
@@ -243,7 +265,9 @@ std::size_t leafHeaderBytes(std::int8_t meta) {
     std::size_t n = mask + 1;
     if (meta == io::NO_MASK_AND_ONE_INACTIVE_VAL || meta == io::MASK_AND_ONE_INACTIVE_VAL) n += sizeof(ValueT);
     if (meta == io::MASK_AND_TWO_INACTIVE_VALS) n += 2 * sizeof(ValueT);
-    if (meta == io::MASK_AND_NO_INACTIVE_VALS || meta == io::MASK_AND_ONE_INACTIVE_VAL || meta == io::MASK_AND_TWO_INACTIVE_VALS) n += mask;
+    if (meta == io::MASK_AND_NO_INACTIVE_VALS || meta == io::MASK_AND_ONE_INACTIVE_VAL ||
+        meta == io::MASK_AND_TWO_INACTIVE_VALS)
+        n += mask;
     return n;
 }
 
@@ -254,7 +278,8 @@ std::size_t leafHeaderBytes(std::int8_t meta) {
 /// it). Tasks are numbered grid by grid in file order; run(k) does task k.
 class LeafSerialiser {
 public:
-    LeafSerialiser(const openvdb::GridCPtrVec& grids, std::uint32_t compression) : out_(grids.size()), writers_(grids.size()), tasksOf_(grids.size(), 0) {
+    LeafSerialiser(const openvdb::GridCPtrVec& grids, std::uint32_t compression)
+        : out_(grids.size()), writers_(grids.size()), tasksOf_(grids.size(), 0) {
         for (std::size_t g = 0; g < grids.size(); ++g) {
             auto setUp = [&](const auto& grid) {
                 using GridT = std::decay_t<decltype(grid)>;
@@ -266,12 +291,14 @@ public:
                 SerialisedLeaves& o = out_[g];
                 o.maskMeta.resize(leaves.size());
                 o.compressedSize.resize(leaves.size());
-                for (std::size_t i = 0; i < leaves.size(); i += kRun) tasks_.push_back({g, i, std::min(leaves.size(), i + kRun)});
+                for (std::size_t i = 0; i < leaves.size(); i += kRun)
+                    tasks_.push_back({g, i, std::min(leaves.size(), i + kRun)});
                 tasksOf_[g] = (leaves.size() + kRun - 1) / kRun;
                 o.runs.resize(tasksOf_[g]);
                 const bool toHalf = grid.saveFloatAsHalf();
                 const ValueT* background = &grid.tree().background();
-                writers_[g] = [&o, leaves = std::move(leaves), toHalf, background, compression](const Task& t, std::string& bytes) {
+                writers_[g] = [&o, leaves = std::move(leaves), toHalf, background, compression](const Task& t,
+                                                                                                std::string& bytes) {
                     StringSink sink(bytes);
                     std::ostream os(&sink);
                     openvdb::io::setDataCompression(os, compression);
@@ -280,21 +307,28 @@ public:
                         const LeafT& leaf = *leaves[i];
                         const std::size_t start = bytes.size();
                         leaf.writeBuffers(os, toHalf);
-                        const std::int8_t meta = static_cast<std::int8_t>(bytes[start + kLeafMaskBytes]);  // after the mask
+                        const std::int8_t meta =
+                            static_cast<std::int8_t>(bytes[start + kLeafMaskBytes]);  // after the mask
                         o.maskMeta[i] = meta;
                         if (leaf.onVoxelCount() > 0) {
-                            o.compressedSize[i] = static_cast<std::int64_t>(bytes.size() - start - leafHeaderBytes<ValueT>(meta));
+                            o.compressedSize[i] =
+                                static_cast<std::int64_t>(bytes.size() - start - leafHeaderBytes<ValueT>(meta));
                         } else {  // no active value: the size function's own corner cases
                             o.compressedSize[i] = static_cast<std::int64_t>(openvdb::io::writeCompressedValuesSize(
-                                                      leaf.buffer().data(), LeafT::SIZE, leaf.valueMask(), std::uint8_t(meta), toHalf, compression)) + 8;
+                                                      leaf.buffer().data(), LeafT::SIZE, leaf.valueMask(),
+                                                      std::uint8_t(meta), toHalf, compression)) +
+                                                  8;
                         }
                     }
                     if (!os) throw RuntimeError("serialising a VDB leaf buffer failed");
                 };
             };
-            if (auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(grids[g])) setUp(*f);
-            else if (auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(grids[g])) setUp(*v);
-            else throw std::logic_error("vdb_cache: the parallel writer handles float and vec3s grids only");
+            if (auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(grids[g]))
+                setUp(*f);
+            else if (auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(grids[g]))
+                setUp(*v);
+            else
+                throw std::logic_error("vdb_cache: the parallel writer handles float and vec3s grids only");
         }
     }
     std::size_t tasks() const { return tasks_.size(); }
@@ -377,7 +411,8 @@ public:
         std::error_code ec;
         const std::uintmax_t size = fs::file_size(file, ec);
         if (ec || end < 0 || size != std::uintmax_t(end))
-            throw RuntimeError("the written file has " + std::to_string(size) + " bytes, expected " + std::to_string(end));
+            throw RuntimeError("the written file has " + std::to_string(size) + " bytes, expected " +
+                               std::to_string(end));
         stages.file = since(t);
     }
 
@@ -388,7 +423,8 @@ private:
     // positions, which Archive::writeGrid patches by seeking back, are computed instead.
     // Returns the file's size.
     std::streamoff writeStreamed(int fd, const openvdb::GridCPtrVec& first, std::size_t laterCount,
-                                 const std::function<openvdb::GridCPtrVec()>& later, const openvdb::MetaMap& meta) const {
+                                 const std::function<openvdb::GridCPtrVec()>& later,
+                                 const openvdb::MetaMap& meta) const {
         namespace io = openvdb::io;
         const std::uint32_t c = compression();
         if (c & io::COMPRESS_ZIP) throw std::logic_error("vdb_cache: the parallel writer does not do ZIP");
@@ -396,8 +432,10 @@ private:
         std::set<const openvdb::TreeBase*> trees;
         auto check = [&](const openvdb::GridCPtrVec& gs) {
             for (const auto& g : gs)
-                if (!g || g->getName().empty() || !names.insert(g->getName()).second || !trees.insert(&g->baseTree()).second)
-                    throw std::logic_error("vdb_cache: the parallel writer needs distinct named grids with trees of their own");
+                if (!g || g->getName().empty() || !names.insert(g->getName()).second ||
+                    !trees.insert(&g->baseTree()).second)
+                    throw std::logic_error(
+                        "vdb_cache: the parallel writer needs distinct named grids with trees of their own");
         };
         check(first);
         const std::size_t total = first.size() + laterCount;
@@ -428,7 +466,8 @@ private:
                 StringSink sink(bytes);
                 std::ostream hs(&sink);
                 auto put = [&](const char* p, std::size_t n) {
-                    if (int err = writeAll(fd, p, n)) throw RuntimeError(std::string("the write failed (disk full?): ") + std::strerror(err));
+                    if (int err = writeAll(fd, p, n))
+                        throw RuntimeError(std::string("the write failed (disk full?): ") + std::strerror(err));
                     offset += static_cast<std::int64_t>(n);
                     constexpr std::int64_t kSyncChunk = std::int64_t(8) << 20;
                     if (offset - synced >= kSyncChunk) {  // a hint: errors come back from fsync
@@ -496,7 +535,8 @@ private:
                         std::ostream ps(&posSink);
                         gd.writeStreamPos(ps);
                     }
-                    if (pos.size() != gridAt - posAt) throw std::logic_error("vdb_cache: unexpected grid stream-position size");
+                    if (pos.size() != gridAt - posAt)
+                        throw std::logic_error("vdb_cache: unexpected grid stream-position size");
                     bytes.replace(posAt, pos.size(), pos);
                     put(bytes.data(), bytes.size());
                     bytes.clear();
@@ -520,20 +560,24 @@ private:
         auto serialise = [&](LeafSerialiser& leaves, std::size_t firstGrid) {
             std::atomic<std::size_t> next{0};
             const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
-            tbb::parallel_for(tbb::blocked_range<int>(0, threads, 1), [&](const tbb::blocked_range<int>&) {
-                for (std::size_t k; !failed && (k = next++) < leaves.tasks();) {
-                    leaves.run(k);
-                    std::lock_guard<std::mutex> lock(mutex);
-                    if (--left[firstGrid + leaves.gridOf(k)] == 0) ready.notify_one();
-                }
-            }, tbb::simple_partitioner());
+            tbb::parallel_for(
+                tbb::blocked_range<int>(0, threads, 1),
+                [&](const tbb::blocked_range<int>&) {
+                    for (std::size_t k; !failed && (k = next++) < leaves.tasks();) {
+                        leaves.run(k);
+                        std::lock_guard<std::mutex> lock(mutex);
+                        if (--left[firstGrid + leaves.gridOf(k)] == 0) ready.notify_one();
+                    }
+                },
+                tbb::simple_partitioner());
         };
         try {
             serialise(*firstLeaves, 0);
             // the later grids, built while the writer writes the first ones
             const openvdb::GridCPtrVec more = failed ? openvdb::GridCPtrVec{} : later();
             if (!failed) {
-                if (more.size() != laterCount) throw std::logic_error("vdb_cache: the later grids are not as many as announced");
+                if (more.size() != laterCount)
+                    throw std::logic_error("vdb_cache: the later grids are not as many as announced");
                 check(more);
                 laterLeaves.emplace(more, c);
                 {
@@ -606,7 +650,8 @@ LatticeGrids latticeGrids(const std::vector<VdbObjectFrame>& objects, const VdbF
             for (Index p = 0; p < lat.size(); ++p) {
                 const Vec3i& u = lat.coords[static_cast<std::size_t>(p)];
                 const Vec3& x = (*f.positions)[static_cast<std::size_t>(p)];
-                acc.setValue(openvdb::Coord(u.x(), u.y(), u.z()), openvdb::Vec3s(float(x.x()), float(x.y()), float(x.z())));
+                acc.setValue(openvdb::Coord(u.x(), u.y(), u.z()),
+                             openvdb::Vec3s(float(x.x()), float(x.y()), float(x.z())));
             }
         }
         pos->setTransform(lx);
@@ -643,8 +688,8 @@ fs::path vdbFramePath(const fs::path& dir, const std::string& scene, int frame) 
     return dir / (scene + "." + digits + ".vdb");
 }
 
-VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFrame>& objects,
-                             const VdbFrameInfo& info, const VdbWriteSettings& settings) {
+VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFrame>& objects, const VdbFrameInfo& info,
+                             const VdbWriteSettings& settings) {
     const auto t0 = Clock::now();
     validate(objects, info, settings);
     openvdb::initialize();  // idempotent and thread-safe
@@ -663,7 +708,9 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         const Vec3 ext = bounds.size() / vs;
         if (ext.maxCoeff() > 16384 || (bounds.min - origin).cwiseAbs().maxCoeff() / vs > 1e6 ||
             (bounds.max - origin).cwiseAbs().maxCoeff() / vs > 1e6)
-            throw InputError("", "vdb: voxel_size", "the world grid would span more than 16384 voxels (voxel size " + std::to_string(vs) + ")");
+            throw InputError(
+                "", "vdb: voxel_size",
+                "the world grid would span more than 16384 voxels (voxel size " + std::to_string(vs) + ")");
     }
 
     VdbWriteReport report;
@@ -702,19 +749,23 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
             std::vector<openvdb::Vec3s> pts;
             pts.reserve(f.surface->vertices.size());
             for (const Vec3& x : f.surface->vertices) {
-                if (!allFiniteNoTrap(x)) throw InputError("", "vdb: object " + f.name, "surface vertices must be finite");
-                pts.emplace_back(float((x.x() - origin.x()) / vs), float((x.y() - origin.y()) / vs), float((x.z() - origin.z()) / vs));
+                if (!allFiniteNoTrap(x))
+                    throw InputError("", "vdb: object " + f.name, "surface vertices must be finite");
+                pts.emplace_back(float((x.x() - origin.x()) / vs), float((x.y() - origin.y()) / vs),
+                                 float((x.z() - origin.z()) / vs));
             }
             std::vector<openvdb::Vec3I> tris;
             tris.reserve(f.surface->triangles.size());
             for (const auto& t : f.surface->triangles) {
                 for (int q : t)
-                    if (q < 0 || std::size_t(q) >= pts.size()) throw InputError("", "vdb: object " + f.name, "surface triangle index out of range");
+                    if (q < 0 || std::size_t(q) >= pts.size())
+                        throw InputError("", "vdb: object " + f.name, "surface triangle index out of range");
                 tris.emplace_back(openvdb::Index32(t[0]), openvdb::Index32(t[1]), openvdb::Index32(t[2]));
             }
             // points in index space; the transform is attached afterwards
             openvdb::math::Transform::Ptr unit = openvdb::math::Transform::createLinearTransform(1.0);
-            openvdb::FloatGrid::Ptr ls = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*unit, pts, tris, float(settings.surfaceHalfWidth));
+            openvdb::FloatGrid::Ptr ls =
+                openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*unit, pts, tris, float(settings.surfaceHalfWidth));
             if (!surface) {
                 surface = ls;
             } else {
@@ -724,7 +775,8 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         if (surface) {
             // meshToLevelSet in index space gives distances in voxels: scale to world units
             const float scale = float(vs);
-            openvdb::tools::foreach(surface->beginValueAll(), [scale](const openvdb::FloatGrid::ValueAllIter& it) { it.setValue(*it * scale); });
+            openvdb::tools::foreach (surface->beginValueAll(),
+                                     [scale](const openvdb::FloatGrid::ValueAllIter& it) { it.setValue(*it * scale); });
             surface->tree().root().setBackground(float(settings.surfaceHalfWidth * vs), false);
             surface->setTransform(xform);
             stamp(*surface, "surface", openvdb::GRID_LEVEL_SET, info);
@@ -766,7 +818,8 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         CheckedArchive archive;
         archive.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
         openvdb::GridCPtrVec constGrids(grids.begin(), grids.end());
-        archive.writeFile(tmp, constGrids, 2 * objects.size(), later, meta, settings.writer == VdbWriter::Parallel, report.stages);
+        archive.writeFile(tmp, constGrids, 2 * objects.size(), later, meta, settings.writer == VdbWriter::Parallel,
+                          report.stages);
         verifyWritten(tmp, names);
     });
     report.writeSeconds = since(t1);

@@ -63,10 +63,10 @@ using VdbKernel = ResampleKernel;
 using VdbBinning = ResampleBinning;
 
 struct VdbWriteSettings {
-    Real worldVoxelSize = 0;     ///< world-grid voxel size; 0 = the smallest lattice spacing
-    bool halfFloat = false;      ///< store density, vel, contact as 16-bit floats
-    bool surface = false;        ///< add the `surface` level set (objects with a surface mesh)
-    Real surfaceHalfWidth = 3;   ///< narrow-band half width of `surface`, in voxels
+    Real worldVoxelSize = 0;    ///< world-grid voxel size; 0 = the smallest lattice spacing
+    bool halfFloat = false;     ///< store density, vel, contact as 16-bit floats
+    bool surface = false;       ///< add the `surface` level set (objects with a surface mesh)
+    Real surfaceHalfWidth = 3;  ///< narrow-band half width of `surface`, in voxels
     VdbKernel kernel = VdbKernel::Auto;
     VdbWriter writer = VdbWriter::Parallel;
     VdbBinning binning = VdbBinning::Auto;
@@ -74,14 +74,14 @@ struct VdbWriteSettings {
 
 /// Wall-clock seconds of the stages of writeVdbFrame (`dgv bench vdb` prints them).
 struct VdbStageSeconds {
-    double cells = 0;      ///< per-cell trilinear maps and voxel boxes
-    double bins = 0;       ///< grouping the (leaf block, cell) pairs by block
-    double voxels = 0;     ///< inverting the cell maps at the voxel centres, coverage, values
-    double trees = 0;      ///< the leaves into the four world grids
-    double surface = 0;    ///< the `surface` level set (when asked for)
-    double lattice = 0;    ///< `position` and `volume_ratio` (built during `file`, while the world grids are written)
-    double file = 0;       ///< serialisation with Blosc, writing, fsync, size check
-    double verify = 0;     ///< re-reading the file's metadata, and the rename
+    double cells = 0;    ///< per-cell trilinear maps and voxel boxes
+    double bins = 0;     ///< grouping the (leaf block, cell) pairs by block
+    double voxels = 0;   ///< inverting the cell maps at the voxel centres, coverage, values
+    double trees = 0;    ///< the leaves into the four world grids
+    double surface = 0;  ///< the `surface` level set (when asked for)
+    double lattice = 0;  ///< `position` and `volume_ratio` (built during `file`, while the world grids are written)
+    double file = 0;     ///< serialisation with Blosc, writing, fsync, size check
+    double verify = 0;   ///< re-reading the file's metadata, and the rename
 };
 
 struct VdbWriteReport {
@@ -112,8 +112,7 @@ std::filesystem::path vdbFramePath(const std::filesystem::path& dir, const std::
 /// a non-positive voxel size or one making the world grid too large), RuntimeError naming
 /// `path` when the file cannot be written or does not read back (a full disk); then no file
 /// and no temporary are left.
-VdbWriteReport writeVdbFrame(const std::filesystem::path& path,
-                             const std::vector<VdbObjectFrame>& objects, const VdbFrameInfo& info,
-                             const VdbWriteSettings& settings = {});
+VdbWriteReport writeVdbFrame(const std::filesystem::path& path, const std::vector<VdbObjectFrame>& objects,
+                             const VdbFrameInfo& info, const VdbWriteSettings& settings = {});
 
 }  // namespace dgv

@@ -31,8 +31,10 @@ TriangleMesh levelSetMesh(const SdfGrid& grid) {
                 for (int i = 0; i < grid.dims.x(); ++i) {
                     const float v = grid.at(i, j, k);
                     const openvdb::Coord c(i, j, k);
-                    if (std::abs(v) < band) acc.setValueOn(c, v);
-                    else if (v < 0) acc.setValueOff(c, -band);
+                    if (std::abs(v) < band)
+                        acc.setValueOn(c, v);
+                    else if (v < 0)
+                        acc.setValueOff(c, -band);
                 }
     }
     std::vector<openvdb::Vec3s> points;

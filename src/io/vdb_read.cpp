@@ -26,12 +26,12 @@ SdfGrid denseLevelSet(const openvdb::FloatGrid& g, std::size_t maxSamples,
     const openvdb::math::MapBase::ConstPtr map = grid->transform().baseMap();
     const openvdb::Vec3d vox = grid->voxelSize();
     const bool uniform = std::abs(vox[0] - vox[1]) <= 1e-9 * vox[0] && std::abs(vox[0] - vox[2]) <= 1e-9 * vox[0];
-    if (!map->isLinear() || !uniform || !(map->isType<openvdb::math::UniformScaleTranslateMap>() ||
-                                          map->isType<openvdb::math::UniformScaleMap>() ||
-                                          map->isType<openvdb::math::TranslationMap>() ||
-                                          map->isType<openvdb::math::ScaleTranslateMap>() ||
-                                          map->isType<openvdb::math::ScaleMap>()))
-        bad("grid '" + grid->getName() + "': only uniform scale + translation transforms are supported (got " + map->type() + ")");
+    if (!map->isLinear() || !uniform ||
+        !(map->isType<openvdb::math::UniformScaleTranslateMap>() || map->isType<openvdb::math::UniformScaleMap>() ||
+          map->isType<openvdb::math::TranslationMap>() || map->isType<openvdb::math::ScaleTranslateMap>() ||
+          map->isType<openvdb::math::ScaleMap>()))
+        bad("grid '" + grid->getName() + "': only uniform scale + translation transforms are supported (got " +
+            map->type() + ")");
 
     const openvdb::CoordBBox active = grid->evalActiveVoxelBoundingBox();
     if (active.empty()) bad("grid '" + grid->getName() + "' has no active voxels");
@@ -39,7 +39,9 @@ SdfGrid denseLevelSet(const openvdb::FloatGrid& g, std::size_t maxSamples,
     SdfGrid out;
     out.dims = Vec3i(hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1);
     const double n = double(out.dims.x()) * out.dims.y() * out.dims.z();
-    if (n > double(maxSamples)) bad("grid '" + grid->getName() + "' needs " + std::to_string(static_cast<long long>(n)) + " dense samples, more than the limit");
+    if (n > double(maxSamples))
+        bad("grid '" + grid->getName() + "' needs " + std::to_string(static_cast<long long>(n)) +
+            " dense samples, more than the limit");
     const openvdb::Vec3d o = grid->indexToWorld(lo);
     out.origin = Vec3(o.x(), o.y(), o.z());
     out.spacing = vox[0];
@@ -49,14 +51,14 @@ SdfGrid denseLevelSet(const openvdb::FloatGrid& g, std::size_t maxSamples,
     for (int k = 0; k < out.dims.z(); ++k)
         for (int j = 0; j < out.dims.y(); ++j)
             for (int i = 0; i < out.dims.x(); ++i)
-                out.values[static_cast<std::size_t>(out.linearIndex(i, j, k))] = acc.getValue(lo + openvdb::Coord(i, j, k));
+                out.values[static_cast<std::size_t>(out.linearIndex(i, j, k))] =
+                    acc.getValue(lo + openvdb::Coord(i, j, k));
     for (float v : out.values)
         if (!std::isfinite(v)) bad("grid '" + grid->getName() + "' holds non-finite distances");
     return out;
 }
 
 }  // namespace
-
 
 SdfGrid readVdbLevelSet(const std::filesystem::path& path, const std::string& gridName, std::size_t maxSamples) {
     const std::string file = path.string();
@@ -118,7 +120,8 @@ SdfGrid meshLevelSet(const TriangleMesh& mesh, Real voxelSize, int exteriorBandV
                          (extent.z() / voxelSize + 2 * exteriorBandVoxels + 3);
     if (!(cells <= double(maxSamples)))
         bad("a level set of voxel " + std::to_string(voxelSize) + " needs about " +
-            std::to_string(static_cast<long long>(std::min(cells, 1e18))) + " samples, more than the limit; use a larger voxel_size");
+            std::to_string(static_cast<long long>(std::min(cells, 1e18))) +
+            " samples, more than the limit; use a larger voxel_size");
     openvdb::initialize();
     std::vector<openvdb::Vec3s> points;
     points.reserve(mesh.vertices.size());

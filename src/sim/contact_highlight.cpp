@@ -11,10 +11,10 @@ namespace dgv {
 
 HighlightColours contrastingHighlight(const Vec3& surface) {
     static const HighlightColours kPairs[] = {
-        {Vec3(1.0, 0.85, 0.1), Vec3(0.9, 0.05, 0.02)},   // warm
-        {Vec3(0.55, 0.95, 1.0), Vec3(0.0, 0.25, 1.0)},   // cool
-        {Vec3(0.75, 1.0, 0.2), Vec3(0.02, 0.6, 0.05)},   // green
-        {Vec3(1.0, 0.6, 1.0), Vec3(0.75, 0.0, 0.8)},     // magenta
+        {Vec3(1.0, 0.85, 0.1), Vec3(0.9, 0.05, 0.02)},  // warm
+        {Vec3(0.55, 0.95, 1.0), Vec3(0.0, 0.25, 1.0)},  // cool
+        {Vec3(0.75, 1.0, 0.2), Vec3(0.02, 0.6, 0.05)},  // green
+        {Vec3(1.0, 0.6, 1.0), Vec3(0.75, 0.0, 0.8)},    // magenta
     };
     auto encoded = [](const Vec3& c) { return Vec3(encodeSrgb(c.x()), encodeSrgb(c.y()), encodeSrgb(c.z())); };
     const Vec3 s = encoded(surface);
@@ -33,8 +33,10 @@ HighlightColours contrastingHighlight(const Vec3& surface) {
 void ContactHistory::observe(const std::vector<unsigned char>& contact) {
     if (mAge.size() != contact.size()) mAge.assign(contact.size(), kNever);
     for (std::size_t p = 0; p < contact.size(); ++p) {
-        if (contact[p]) mAge[p] = 0;
-        else if (mAge[p] < kNever) ++mAge[p];
+        if (contact[p])
+            mAge[p] = 0;
+        else if (mAge[p] < kNever)
+            ++mAge[p];
     }
 }
 

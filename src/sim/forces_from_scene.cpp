@@ -7,12 +7,24 @@ namespace dgv {
 ForceTerm forceTermFromScene(const ForceDesc& d) {
     ForceTerm t;
     switch (d.type) {
-        case ForceType::Gravity: t.kind = ForceKind::Gravity; break;
-        case ForceType::Attractor: t.kind = ForceKind::Attractor; break;
-        case ForceType::Vortex: t.kind = ForceKind::Vortex; break;
-        case ForceType::Torsion: t.kind = ForceKind::Torsion; break;
-        case ForceType::Burst: t.kind = ForceKind::Burst; break;
-        case ForceType::Wind: t.kind = ForceKind::Wind; break;
+        case ForceType::Gravity:
+            t.kind = ForceKind::Gravity;
+            break;
+        case ForceType::Attractor:
+            t.kind = ForceKind::Attractor;
+            break;
+        case ForceType::Vortex:
+            t.kind = ForceKind::Vortex;
+            break;
+        case ForceType::Torsion:
+            t.kind = ForceKind::Torsion;
+            break;
+        case ForceType::Burst:
+            t.kind = ForceKind::Burst;
+            break;
+        case ForceType::Wind:
+            t.kind = ForceKind::Wind;
+            break;
     }
     t.strength.keys = d.strength.keys;
     t.direction = d.direction;

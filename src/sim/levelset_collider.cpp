@@ -11,7 +11,7 @@
 namespace dgv {
 
 std::function<Real(const Vec3& x, Vec3* gradient)> levelSetDistance(std::shared_ptr<const SdfGrid> grid,
-                                                                      const TransformDesc& transform) {
+                                                                    const TransformDesc& transform) {
     DGV_CHECK(grid && !grid->empty());
     const Real s = transform.scale.x();
     DGV_CHECK(s > 0 && transform.scale.y() == s && transform.scale.z() == s);

@@ -19,6 +19,6 @@ namespace dgv {
 /// outside and at most minus the band inside, with a zero gradient there (SdfGrid).
 /// The transform's scale must be uniform (checked: the scene reader refuses anything else).
 std::function<Real(const Vec3& x, Vec3* gradient)> levelSetDistance(std::shared_ptr<const SdfGrid> grid,
-                                                                      const TransformDesc& transform);
+                                                                    const TransformDesc& transform);
 
 }  // namespace dgv

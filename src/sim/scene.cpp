@@ -43,9 +43,7 @@ Vec3 CurveDesc::offsetAt(Real frame) const {
     return motion.back().second;
 }
 
-Real srgbToLinear(Real c) {
-    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
+Real srgbToLinear(Real c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
 }  // namespace dgv
 
@@ -54,9 +52,12 @@ namespace dgv {
 Real resolvedStiffness(const MaterialDesc& m, Real halfHeight) {
     constexpr Real kTwoPi = 6.283185307179586, kStandardGravity = 9.81;
     switch (m.stiffnessFrom) {
-    case MaterialDesc::StiffnessFrom::Value: return m.stiffness;
-    case MaterialDesc::StiffnessFrom::WobbleHz: return (kTwoPi * m.wobbleHz) * (kTwoPi * m.wobbleHz);
-    case MaterialDesc::StiffnessFrom::Sag: break;
+        case MaterialDesc::StiffnessFrom::Value:
+            return m.stiffness;
+        case MaterialDesc::StiffnessFrom::WobbleHz:
+            return (kTwoPi * m.wobbleHz) * (kTwoPi * m.wobbleHz);
+        case MaterialDesc::StiffnessFrom::Sag:
+            break;
     }
     // scenes/README.md's rule, sag ≈ 5 g/(k r) of the radius r (measured on balls: the
     // trace-free part of the sag is about two thirds of it).
@@ -73,10 +74,14 @@ Real resolvedDamping(const MaterialDesc& m, Real stiffness) {
 
 bool PinDesc::contains(const Vec3& x) const {
     switch (kind) {
-        case Kind::None: return false;
-        case Kind::Box: return (x.array() >= min.array()).all() && (x.array() <= max.array()).all();
-        case Kind::Ball: return (x - centre).norm() <= radius;
-        case Kind::Group: return false;  // by vertices, not by position (sim/simulation.cpp)
+        case Kind::None:
+            return false;
+        case Kind::Box:
+            return (x.array() >= min.array()).all() && (x.array() <= max.array()).all();
+        case Kind::Ball:
+            return (x - centre).norm() <= radius;
+        case Kind::Group:
+            return false;  // by vertices, not by position (sim/simulation.cpp)
     }
     return false;
 }

@@ -29,11 +29,11 @@ enum class PrimitiveType { Sphere, Box, Torus, Capsule };
 
 struct PrimitiveDesc {
     PrimitiveType type = PrimitiveType::Sphere;
-    Real radius = 0.5;                  ///< sphere, capsule
-    Vec3 size = Vec3::Ones();           ///< box edge lengths
-    Real majorRadius = 0.5;             ///< torus: centre to tube centre
-    Real minorRadius = 0.2;             ///< torus: tube radius
-    Real height = 1.0;                  ///< capsule: distance between hemisphere centres
+    Real radius = 0.5;         ///< sphere, capsule
+    Vec3 size = Vec3::Ones();  ///< box edge lengths
+    Real majorRadius = 0.5;    ///< torus: centre to tube centre
+    Real minorRadius = 0.2;    ///< torus: tube radius
+    Real height = 1.0;         ///< capsule: distance between hemisphere centres
 };
 
 /// How a deformable object's material responds (dynamics/stepper.hpp DynamicsSettings).
@@ -43,22 +43,22 @@ struct PrimitiveDesc {
 /// sim/simulation resolves them on the object's lattice (resolvedStiffness, resolvedDamping).
 struct MaterialDesc {
     enum class StiffnessFrom { Value, WobbleHz, Sag };
-    Real density = 1000;        ///< kg/m^3
-    Real damping = 1;           ///< 1/s: twist and flex stretch rates decay as exp(-damping t)
-    Real viscosity = 0;         ///< m²/s: kinematic viscosity (DynamicsSettings::viscosity)
+    Real density = 1000;  ///< kg/m^3
+    Real damping = 1;     ///< 1/s: twist and flex stretch rates decay as exp(-damping t)
+    Real viscosity = 0;   ///< m²/s: kinematic viscosity (DynamicsSettings::viscosity)
     StiffnessFrom stiffnessFrom = StiffnessFrom::Sag;
-    Real stiffness = 0;         ///< 1/s^2: shape memory (0: goo; > 0: jelly that wobbles back)
-    Real wobbleHz = 0;          ///< the wobble's frequency √k/2π (stiffnessFrom WobbleHz)
+    Real stiffness = 0;  ///< 1/s^2: shape memory (0: goo; > 0: jelly that wobbles back)
+    Real wobbleHz = 0;   ///< the wobble's frequency √k/2π (stiffnessFrom WobbleHz)
     /// The resting sag under standard gravity as a share of the body's half height r (its rest
     /// extent along y over 2): k = 5 g/(sag r) (stiffnessFrom Sag). Size-independent firmness.
     Real sag = 0.1;
     /// > 0: the damping is set so that a wobble's amplitude falls to a tenth over this many
     /// periods, damping = 2 f ln 10 / wobbles (f = √k/2π); 0: `damping` as given.
     Real wobbles = 3;
-    Real yield = 0;             ///< plasticity: the largest elastic log strain (0: off; needs stiffness)
-    Real volumeTolerance = 1e-5; ///< the volume projection's max |V/V0 − 1| per cell after a step
-    Real maxDeltaGamma = 0.05;  ///< limiter on the connection change per step
-    bool pinnedLoad = true;     ///< a pinned body's load modes (DynamicsSettings::pinnedLoad)
+    Real yield = 0;               ///< plasticity: the largest elastic log strain (0: off; needs stiffness)
+    Real volumeTolerance = 1e-5;  ///< the volume projection's max |V/V0 − 1| per cell after a step
+    Real maxDeltaGamma = 0.05;    ///< limiter on the connection change per step
+    bool pinnedLoad = true;       ///< a pinned body's load modes (DynamicsSettings::pinnedLoad)
     /// Goo re-voxelised in its current shape when its lattice distorts (sim/simulation,
     /// docs/math.md "Re-parametrisation"); false keeps the lattice it starts with.
     bool reparametrise = true;
@@ -90,15 +90,15 @@ struct ObjectDesc {
     std::string name;
     bool isPrimitive = false;
     PrimitiveDesc primitive;
-    std::string meshPath;       ///< absolute (resolved against the scene file's folder)
-    std::string meshName;       ///< import only this mesh/node of the file; empty: all
+    std::string meshPath;  ///< absolute (resolved against the scene file's folder)
+    std::string meshName;  ///< import only this mesh/node of the file; empty: all
     TransformDesc transform;
     VoxeliseSettings voxel;
     Vec3 color = Vec3(0.8, 0.8, 0.8);  ///< linear RGB (the file gives sRGB)
     bool deformable = true;
     MaterialDesc material;
-    Vec3 velocity = Vec3::Zero();      ///< initial velocity of the centre, m/s
-    Vec3 spinDegrees = Vec3::Zero();   ///< initial angular velocity, degrees/s (rigid spin)
+    Vec3 velocity = Vec3::Zero();     ///< initial velocity of the centre, m/s
+    Vec3 spinDegrees = Vec3::Zero();  ///< initial angular velocity, degrees/s (rigid spin)
     PinDesc pin;
 };
 
@@ -112,53 +112,53 @@ enum class ForceType { Gravity, Attractor, Vortex, Burst, Wind, Torsion };
 
 struct ForceDesc {
     ForceType type = ForceType::Gravity;
-    Keyframed strength;                     ///< m/s^2 (gravity, wind) or field scale
-    Vec3 direction = Vec3(0, -1, 0);        ///< gravity, wind (unit)
-    Vec3 position = Vec3::Zero();           ///< attractor, burst centre; vortex axis point
-    Vec3 axis = Vec3::UnitY();              ///< vortex (unit)
-    Real radius = 1.0;                      ///< falloff radius (attractor, vortex, burst)
-    Real softening = 0.25;                  ///< attractor: softening radius, > 0 (default radius/4)
-    Real falloff = 2;                       ///< attractor: 1/r^falloff (2); vortex: (1); in [0, 4]
-    Real turbulence = 0.0;                  ///< wind: curl-noise amplitude relative to strength
-    Real scale = 1.0;                       ///< wind: noise feature size
-    unsigned seed = 1;                      ///< wind: noise seed
-    int modes = 32;                         ///< wind: Fourier modes of the noise (cost ∝ modes)
+    Keyframed strength;               ///< m/s^2 (gravity, wind) or field scale
+    Vec3 direction = Vec3(0, -1, 0);  ///< gravity, wind (unit)
+    Vec3 position = Vec3::Zero();     ///< attractor, burst centre; vortex axis point
+    Vec3 axis = Vec3::UnitY();        ///< vortex (unit)
+    Real radius = 1.0;                ///< falloff radius (attractor, vortex, burst)
+    Real softening = 0.25;            ///< attractor: softening radius, > 0 (default radius/4)
+    Real falloff = 2;                 ///< attractor: 1/r^falloff (2); vortex: (1); in [0, 4]
+    Real turbulence = 0.0;            ///< wind: curl-noise amplitude relative to strength
+    Real scale = 1.0;                 ///< wind: noise feature size
+    unsigned seed = 1;                ///< wind: noise seed
+    int modes = 32;                   ///< wind: Fourier modes of the noise (cost ∝ modes)
 };
 
 enum class ColliderType { Ground, Sphere, Mesh, LevelSet };
 
 struct ColliderDesc {
     ColliderType type = ColliderType::Ground;
-    Real height = 0;                        ///< ground: y of the plane
-    Vec3 centre = Vec3::Zero();             ///< sphere
-    Real radius = 1;                        ///< sphere
-    std::string meshPath;                   ///< mesh (absolute)
-    TransformDesc transform;                ///< mesh, levelset (levelset: uniform scale only)
-    std::string levelSetPath;               ///< levelset: the .vdb file (absolute)
-    std::string levelSetGrid;               ///< levelset: grid name; empty: the first level set
+    Real height = 0;             ///< ground: y of the plane
+    Vec3 centre = Vec3::Zero();  ///< sphere
+    Real radius = 1;             ///< sphere
+    std::string meshPath;        ///< mesh (absolute)
+    TransformDesc transform;     ///< mesh, levelset (levelset: uniform scale only)
+    std::string levelSetPath;    ///< levelset: the .vdb file (absolute)
+    std::string levelSetGrid;    ///< levelset: grid name; empty: the first level set
     /// levelset: the grid, loaded by the scene reader (io/scene_json.cpp; never null after it);
     /// mesh: the signed distance to the transformed mesh, in world space (identity transform)
     std::shared_ptr<const SdfGrid> levelSet;
-    Real meshVoxelSize = 0;                 ///< mesh: the level set's voxel; 0: longest edge / 128
+    Real meshVoxelSize = 0;  ///< mesh: the level set's voxel; 0: longest edge / 128
     /// mesh: the imported mesh with `transform` applied (world space), for drawing
     std::shared_ptr<const TriangleMesh> worldMesh;
-    Real friction = 0.5;                    ///< 0: slip, 1: sticky
-    Real restitution = 0.0;                 ///< elastic bounce, 0..1
+    Real friction = 0.5;     ///< 0: slip, 1: sticky
+    Real restitution = 0.0;  ///< elastic bounce, 0..1
 };
 
 /// A closed curve drawn as a tube, for the Gauss-linking-number figures (seed section 5, figures
 /// 1-4; app/curve_scene.cpp, docs/gln.md). A ring or a curve file, moved rigidly (no rotation).
 struct CurveDesc {
     std::string name;
-    std::string curvePath;           ///< a curve file (absolute, io/curve_file.hpp); empty: a ring
-    Vec3 centre = Vec3::Zero();      ///< ring: centre
-    Vec3 normal = Vec3::UnitY();     ///< ring: unit normal of its plane (vertices CCW about it)
-    Real radius = 1;                 ///< ring: radius
-    int segments = 256;              ///< ring: vertices (vertex 0 at centre + radius·u, u the
-                                     ///< coordinate axis least aligned with normal, projected)
+    std::string curvePath;                      ///< a curve file (absolute, io/curve_file.hpp); empty: a ring
+    Vec3 centre = Vec3::Zero();                 ///< ring: centre
+    Vec3 normal = Vec3::UnitY();                ///< ring: unit normal of its plane (vertices CCW about it)
+    Real radius = 1;                            ///< ring: radius
+    int segments = 256;                         ///< ring: vertices (vertex 0 at centre + radius·u, u the
+                                                ///< coordinate axis least aligned with normal, projected)
     std::vector<std::pair<Real, Vec3>> motion;  ///< (frame, offset) keys, linear, held outside
-    Vec3 color = Vec3(0.8, 0.8, 0.8);  ///< linear RGB (the file gives sRGB)
-    Real tubeRadius = 0.02;          ///< drawn tube radius (world units)
+    Vec3 color = Vec3(0.8, 0.8, 0.8);           ///< linear RGB (the file gives sRGB)
+    Real tubeRadius = 0.02;                     ///< drawn tube radius (world units)
 
     Vec3 offsetAt(Real frame) const;  ///< the motion's offset at `frame` (zero without keys)
 };
@@ -181,7 +181,7 @@ struct CameraKey {
 
 struct CameraDesc {
     CameraType type = CameraType::Turntable;
-    Real fovDegrees = 35;          ///< vertical field of view
+    Real fovDegrees = 35;  ///< vertical field of view
     // turntable: orbits `degrees` over the frame range, starting at `startDegrees`, framed on
     // the bounds of all objects at rest
     Real degrees = 360;
@@ -204,42 +204,42 @@ struct RenderDesc {
     bool transparent = false;
     bool ground = true;
     int bitDepth = 8;
-    Real creaseDegrees = 40;   ///< normals split along edges sharper than this (180: smooth)
+    Real creaseDegrees = 40;  ///< normals split along edges sharper than this (180: smooth)
     /// Contact highlighting (render.contact): the contact set R as a colour ramp on the surface.
-    std::string contactMode = "off";   ///< "off", "depth" (penetration) or "recent" (time since contact)
-    Real contactDepthMax = 0;          ///< depth at which the ramp reaches `high`; 0: the object's voxel size
-    int contactFadeFrames = 12;        ///< recent: frames over which the highlight fades
-    bool contactLowSet = false;        ///< whether `low` was given (recent: default the object's colour)
-    bool contactHighSet = false;       ///< whether `high` was given (else chosen to contrast with each surface)
+    std::string contactMode = "off";           ///< "off", "depth" (penetration) or "recent" (time since contact)
+    Real contactDepthMax = 0;                  ///< depth at which the ramp reaches `high`; 0: the object's voxel size
+    int contactFadeFrames = 12;                ///< recent: frames over which the highlight fades
+    bool contactLowSet = false;                ///< whether `low` was given (recent: default the object's colour)
+    bool contactHighSet = false;               ///< whether `high` was given (else chosen to contrast with each surface)
     Vec3 contactLow = Vec3(1.0, 0.85, 0.1);    ///< linear RGB: shallow / fading
     Vec3 contactHigh = Vec3(0.9, 0.05, 0.02);  ///< linear RGB: deep / in contact now
-    int contactSpread = 4;             ///< lattice steps the highlight widens over the body (0: R alone)
-    bool contactFootprint = true;      ///< also mark the colliders (ground, spheres, meshes, level sets) where touched
-    Real contactGlow = 0.35;           ///< the highlight's colour also emitted, times this (reads in shadow)
+    int contactSpread = 4;                     ///< lattice steps the highlight widens over the body (0: R alone)
+    bool contactFootprint = true;  ///< also mark the colliders (ground, spheres, meshes, level sets) where touched
+    Real contactGlow = 0.35;       ///< the highlight's colour also emitted, times this (reads in shadow)
     /// Overlays (render.overlays): lattice points as dots drawn over the surface, either the
     /// "boundary" points (those missing a neighbour: the surface layer) or "all" of them.
     /// render.pins: the pinned lattice points drawn as dots (depth-tested).
     bool pins = false;
     Vec3 pinColour = Vec3(0.85, 0.05, 0.75);  ///< linear RGB
-    Real pinPointSize = 5;                     ///< dot diameter, output pixels
+    Real pinPointSize = 5;                    ///< dot diameter, output pixels
     bool overlayLattice = false;
     std::string overlayLatticeSet = "boundary";
     Vec3 overlayLatticeColour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB
-    Real overlayPointSize = 3;         ///< dot diameter, output pixels
+    Real overlayPointSize = 3;                          ///< dot diameter, output pixels
     /// GLN network loops (docs/gln.md) as lines: "contact" (fine rings of the points in R),
     /// "all" (every fine ring) or "coarse" (every coarse ring).
     bool overlayGlnLoops = false;
     std::string overlayGlnLoopSet = "contact";
     Vec3 overlayGlnColour = Vec3(0.0331, 1.0, 0.1329);  ///< linear RGB (sRGB [0.2, 1, 0.4])
-    Real overlayLineWidth = 1.5;       ///< line width, output pixels
+    Real overlayLineWidth = 1.5;                        ///< line width, output pixels
 };
 
 struct OutputDesc {
-    std::string dir;     ///< absolute; default <cwd>/out/<scene name>; frames <dir>/<name>.####.png
-    bool vdb = false;    ///< <dir>/vdb/<name>.####.vdb (docs/vdb.md)
-    Real vdbVoxelSize = 0;   ///< world grids' voxel size; 0: the objects' (smallest) voxel size
-    bool vdbHalf = false;    ///< density, vel, contact as 16-bit floats
-    bool vdbSurface = false; ///< also the `surface` level set of each deformed mesh
+    std::string dir;          ///< absolute; default <cwd>/out/<scene name>; frames <dir>/<name>.####.png
+    bool vdb = false;         ///< <dir>/vdb/<name>.####.vdb (docs/vdb.md)
+    Real vdbVoxelSize = 0;    ///< world grids' voxel size; 0: the objects' (smallest) voxel size
+    bool vdbHalf = false;     ///< density, vel, contact as 16-bit floats
+    bool vdbSurface = false;  ///< also the `surface` level set of each deformed mesh
     /// The mesh cache (io/mesh_cache.hpp): "" (none), "ply" or "obj": <dir>/mesh/<object>.####.<ext>.
     std::string mesh;
 };
@@ -247,8 +247,8 @@ struct OutputDesc {
 /// How contacts with colliders are found (docs/gln.md, "GLN networks and the contact set R").
 struct CollisionDesc {
     enum class Detect { Sdf, Gln };
-    Detect detect = Detect::Sdf;   ///< sdf: every point with signed distance < 0; gln: the GLN network's R
-    bool coarseToFine = false;     ///< gln: coarse rings first, fine rings only inside linked ones
+    Detect detect = Detect::Sdf;  ///< sdf: every point with signed distance < 0; gln: the GLN network's R
+    bool coarseToFine = false;    ///< gln: coarse rings first, fine rings only inside linked ones
     /// Deformable objects collide with each other (each one's deformed lattice surface is a
     /// signed-distance collider for the others, rebuilt every substep; sim/body_contact.hpp).
     bool objects = true;
@@ -258,13 +258,13 @@ struct CollisionDesc {
     /// 6× faster in contact (docs/gln.md, "Objects colliding").
     enum class Distance { Grid, Exact };
     Distance distance = Distance::Grid;
-    Real friction = 0.5;           ///< between objects: 0 slip .. 1 stick
-    Real restitution = 0;          ///< between objects: 0..1
+    Real friction = 0.5;   ///< between objects: 0 slip .. 1 stick
+    Real restitution = 0;  ///< between objects: 0..1
 };
 
 struct SceneDesc {
-    std::string path;    ///< the scene file
-    std::string name;    ///< default: the file name without .json
+    std::string path;  ///< the scene file
+    std::string name;  ///< default: the file name without .json
     int frameStart = 1;
     int frameEnd = 1;
     Real fps = 24;
@@ -279,7 +279,7 @@ struct SceneDesc {
     std::vector<ForceDesc> forces;
     std::vector<ColliderDesc> colliders;
     CollisionDesc collision;
-    std::vector<CurveDesc> curves;   ///< closed curves (GLN figures); a scene has objects or curves
+    std::vector<CurveDesc> curves;  ///< closed curves (GLN figures); a scene has objects or curves
     GlnFigureDesc gln;
     CameraDesc camera;
     RenderDesc render;

@@ -48,9 +48,9 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
             case ColliderType::LevelSet: {
                 const bool mesh = d.type == ColliderType::Mesh;
                 if (!d.levelSet)  // a SceneDesc built by hand without loading the file
-                    throw InputError(scene.path, "colliders[" + std::to_string(i) + (mesh ? "].mesh" : "].file"),
-                                     (mesh ? "the mesh " + d.meshPath : "the level set " + d.levelSetPath) +
-                                         " was not loaded");
+                    throw InputError(
+                        scene.path, "colliders[" + std::to_string(i) + (mesh ? "].mesh" : "].file"),
+                        (mesh ? "the mesh " + d.meshPath : "the level set " + d.levelSetPath) + " was not loaded");
                 c.kind = Collider::Kind::Distance;
                 // a mesh's distance grid is built in world space; a level set is placed by its transform
                 c.distance = levelSetDistance(d.levelSet, mesh ? TransformDesc{} : d.transform);
@@ -87,9 +87,9 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         set.viscosity = o.material.viscosity;
         if (o.material.stiffnessFrom != MaterialDesc::StiffnessFrom::Value || o.material.wobbles > 0) {
             char line[240];
-            std::snprintf(line, sizeof line,
-                          "object '%s': stiffness %.4g/s^2 (a wobble of %.3g Hz), damping %.3g/s", o.name.c_str(),
-                          set.shapeStiffness, std::sqrt(set.shapeStiffness) / 6.283185307179586, set.damping);
+            std::snprintf(line, sizeof line, "object '%s': stiffness %.4g/s^2 (a wobble of %.3g Hz), damping %.3g/s",
+                          o.name.c_str(), set.shapeStiffness, std::sqrt(set.shapeStiffness) / 6.283185307179586,
+                          set.damping);
             logInfo(line);
         }
         set.yieldStrain = o.material.yield;
@@ -116,12 +116,13 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         }
         // A large pinned body's load modes take seconds to make (docs/math.md, "A pinned body
         // under a uniform load": 17 s at 137k points on 2 cores): say so, rather than sit silent.
-        const bool slowModes = set.pinnedLoad && lat.size() >= 20000 &&
-                               std::find(pinned.begin(), pinned.end(), 1) != pinned.end();
+        const bool slowModes =
+            set.pinnedLoad && lat.size() >= 20000 && std::find(pinned.begin(), pinned.end(), 1) != pinned.end();
         const auto made = std::chrono::steady_clock::now();
         if (slowModes) {
             char line[200];
-            std::snprintf(line, sizeof line, "object '%s': making the load modes of a pinned body of %lld points (once per run)",
+            std::snprintf(line, sizeof line,
+                          "object '%s': making the load modes of a pinned body of %lld points (once per run)",
                           o.name.c_str(), static_cast<long long>(lat.size()));
             logInfo(line);
         }
@@ -166,15 +167,16 @@ void Simulation::attachNetwork(std::size_t i) {
     gs.coarseToFine = mScene.collision.coarseToFine;
     mNetworks[i] = std::make_unique<GlnNetwork>(mBodies[i]->lattice(), gs);
     const GlnNetwork* net = mNetworks[i].get();
-    mBodies[i]->setContactDetector([net](const std::vector<Vec3>& x, const Collider& col, std::vector<unsigned char>& R) {
-        const SignedDistance phi = [&col](const Vec3& p, Vec3* g) {
-            Vec3 gg;
-            const Real v = col.evaluate(p, gg);
-            if (g) *g = gg;
-            return v;
-        };
-        net->contactSet(x, phi, R);
-    });
+    mBodies[i]->setContactDetector(
+        [net](const std::vector<Vec3>& x, const Collider& col, std::vector<unsigned char>& R) {
+            const SignedDistance phi = [&col](const Vec3& p, Vec3* g) {
+                Vec3 gg;
+                const Real v = col.evaluate(p, gg);
+                if (g) *g = gg;
+                return v;
+            };
+            net->contactSet(x, phi, R);
+        });
 }
 
 const TriangleMesh* Simulation::surfaceMesh(std::size_t object) const {
@@ -282,7 +284,8 @@ Index Simulation::reparametriseDistorted(int frame) {
         const LatticeDistortion d = latticeDistortion(b);
         if (!mRemapBound.exceeded(d)) continue;
         char why[160];
-        std::snprintf(why, sizeof why, "max |Γ| %.2f, frame aspect %.1f, min det %.2f", d.maxGamma, d.maxAspect, d.minFrameDet);
+        std::snprintf(why, sizeof why, "max |Γ| %.2f, frame aspect %.1f, min det %.2f", d.maxGamma, d.maxAspect,
+                      d.minFrameDet);
         if (reparametriseBody(i, frame, why)) ++done;
     }
     return done;
@@ -364,7 +367,8 @@ std::vector<std::vector<Collider>> Simulation::substepColliders() const {
         return mBodies[i]->totalMass() / static_cast<Real>(mBodies[i]->lattice().size());
     };
     std::vector<Touch> touch(n * n);
-    forClosePairs(true, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const PairSurface>& distance) {
+    forClosePairs(true, [&](std::size_t i, std::size_t j, Real margin,
+                            const std::shared_ptr<const PairSurface>& distance) {
         Touch& t = touch[i * n + j];
         t.near = true;
         t.slot = out[i].size();
@@ -445,17 +449,19 @@ void Simulation::checkStartOverlap() const {
     // reported, with its depth in world units and in voxels of the body whose point it is.
     std::size_t worstI = 0, worstJ = 0;
     Real worst = 0, worstVoxels = 0;
-    forClosePairs(false, [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const PairSurface>& distance) {
-        const Real h = mBodies[i]->lattice().spacing;
-        Real deepest = 0;
-        for (const Vec3& x : mBodies[i]->positions()) deepest = std::max(deepest, margin - distance->distance(x));
-        if (deepest / h > kStartOverlapVoxels && deepest / h > worstVoxels) {
-            worstI = i;
-            worstJ = j;
-            worst = deepest;
-            worstVoxels = deepest / h;
-        }
-    });
+    forClosePairs(false,
+                  [&](std::size_t i, std::size_t j, Real margin, const std::shared_ptr<const PairSurface>& distance) {
+                      const Real h = mBodies[i]->lattice().spacing;
+                      Real deepest = 0;
+                      for (const Vec3& x : mBodies[i]->positions())
+                          deepest = std::max(deepest, margin - distance->distance(x));
+                      if (deepest / h > kStartOverlapVoxels && deepest / h > worstVoxels) {
+                          worstI = i;
+                          worstJ = j;
+                          worst = deepest;
+                          worstVoxels = deepest / h;
+                      }
+                  });
     if (worstVoxels == 0) return;
     const std::size_t a = std::min(worstI, worstJ), b = std::max(worstI, worstJ);
     char text[300];
@@ -470,10 +476,12 @@ void Simulation::checkStartOverlap() const {
 Real Simulation::objectPenetration() const {
     Real deepest = 0;
     if (!objectContact()) return deepest;
-    forClosePairs(false, [&](std::size_t i, std::size_t, Real margin, const std::shared_ptr<const PairSurface>& distance) {
-        const Real h = mBodies[i]->lattice().spacing;
-        for (const Vec3& x : mBodies[i]->positions()) deepest = std::max(deepest, (margin - distance->distance(x)) / h);
-    });
+    forClosePairs(false,
+                  [&](std::size_t i, std::size_t, Real margin, const std::shared_ptr<const PairSurface>& distance) {
+                      const Real h = mBodies[i]->lattice().spacing;
+                      for (const Vec3& x : mBodies[i]->positions())
+                          deepest = std::max(deepest, (margin - distance->distance(x)) / h);
+                  });
     return deepest;
 }
 
@@ -585,9 +593,8 @@ bool Simulation::checkSurfaces(FrameStats& s, int* failed, SurfaceCheck* failedC
         const DeformableBody* b = mBodies[i].get();
         if (!b || !mSurfaces[i].mesh) continue;
         deformVertices(*mSurfaces[i].embedding, b->state(), deformed);
-        const SurfaceCheck c =
-            checkSurface(mSurfaces[i].setup, *mSurfaces[i].mesh, *mSurfaces[i].embedding, b->state(),
-                         b->lattice().spacing, deformed);
+        const SurfaceCheck c = checkSurface(mSurfaces[i].setup, *mSurfaces[i].mesh, *mSurfaces[i].embedding, b->state(),
+                                            b->lattice().spacing, deformed);
         if (!c.ok()) {
             allOk = false;
             if (failed && *failed < 0) {
@@ -652,8 +659,9 @@ FrameStats Simulation::advanceTo(int frame) {
         restoreState(frame - 1, start);
         // Goo that fails a frame is first re-voxelised at the frame's start and the frame tried
         // again at the same substeps: a fresh lattice and surface, whatever the bound said.
-        if (failed >= 0 && static_cast<std::size_t>(failed) < mBodies.size() && mRemapAllowed[static_cast<std::size_t>(failed)] &&
-            !remappedForRetry[static_cast<std::size_t>(failed)] && mBodies[static_cast<std::size_t>(failed)]->lastStepLength() > 0) {
+        if (failed >= 0 && static_cast<std::size_t>(failed) < mBodies.size() &&
+            mRemapAllowed[static_cast<std::size_t>(failed)] && !remappedForRetry[static_cast<std::size_t>(failed)] &&
+            mBodies[static_cast<std::size_t>(failed)]->lastStepLength() > 0) {
             remappedForRetry[static_cast<std::size_t>(failed)] = 1;
             if (reparametriseBody(static_cast<std::size_t>(failed), frame, "it failed the frame")) {
                 ++remaps;
@@ -702,8 +710,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             staticContact[i] = r.staticContact ? 1 : 0;
             if (!r.fault.empty()) throw fault(i, r.fault);
             for (const Vec3& x : mBodies[i]->positions())
-                if (!allFiniteNoTrap(x))
-                    throw fault(i, "a position became non-finite; use more substeps or damping");
+                if (!allFiniteNoTrap(x)) throw fault(i, "a position became non-finite; use more substeps or damping");
             s.maxCellVolumeError = std::max(s.maxCellVolumeError, r.maxCellVolumeError);
             s.invertedCells = std::max(s.invertedCells, r.invertedCells);
             s.limitedPoints += r.limitedPoints;
@@ -827,8 +834,9 @@ Real FrameStats::contactRecall() const {
 
 std::string statsCsvRow(const FrameStats& s) {
     char buf[640];
-    std::snprintf(buf, sizeof buf, "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d,%lld,%lld,%.4g,%lld", s.frame, s.time,
-                  s.kineticEnergy, s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift,
+    std::snprintf(buf, sizeof buf,
+                  "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d,%lld,%lld,%.4g,%lld", s.frame,
+                  s.time, s.kineticEnergy, s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift,
                   static_cast<long long>(s.invertedCells), static_cast<long long>(s.contacts),
                   static_cast<long long>(s.limitedPoints), s.stepMs, s.maxPenetration, s.contactPrecision(),
                   s.contactRecall(), s.substeps, static_cast<long long>(s.flippedTriangles),

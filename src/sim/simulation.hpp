@@ -30,32 +30,32 @@ namespace dgv {
 /// surface check).
 struct FrameStats {
     int frame = 0;
-    Real time = 0;                 ///< seconds since frames.start
-    Real kineticEnergy = 0;        ///< J, at the end of the frame
-    Real sumDeltaGamma2 = 0;       ///< Σ |δΓ|², at the end of the frame
-    Real maxCellVolumeError = 0;   ///< max over bodies, cells and the frame's substeps
-    Real totalVolumeDrift = 0;     ///< Σ V / Σ V0 − 1 over all bodies, end of the frame
-    Index invertedCells = 0;       ///< max over the substeps
-    Index contacts = 0;            ///< points in contact, end of the frame
-    Index limitedPoints = 0;       ///< summed over the substeps
-    double stepMs = 0;             ///< mean wall-clock time of one substep (all bodies), ms
+    Real time = 0;                ///< seconds since frames.start
+    Real kineticEnergy = 0;       ///< J, at the end of the frame
+    Real sumDeltaGamma2 = 0;      ///< Σ |δΓ|², at the end of the frame
+    Real maxCellVolumeError = 0;  ///< max over bodies, cells and the frame's substeps
+    Real totalVolumeDrift = 0;    ///< Σ V / Σ V0 − 1 over all bodies, end of the frame
+    Index invertedCells = 0;      ///< max over the substeps
+    Index contacts = 0;           ///< points in contact, end of the frame
+    Index limitedPoints = 0;      ///< summed over the substeps
+    double stepMs = 0;            ///< mean wall-clock time of one substep (all bodies), ms
     // Contacts against the truth (signed distance < 0 before the response; docs/gln.md):
-    Real maxPenetration = 0;       ///< voxels: max over substeps, bodies, points of −φ/h after the step
-                                   ///< (between bodies: at the end of the frame)
-    Index contactSetSize = 0;      ///< Σ over substeps and bodies of |R|
-    Index contactTruth = 0;        ///< Σ of |{φ < 0}|
-    Index contactTruePositive = 0; ///< Σ of |R ∩ {φ < 0}|
+    Real maxPenetration = 0;        ///< voxels: max over substeps, bodies, points of −φ/h after the step
+                                    ///< (between bodies: at the end of the frame)
+    Index contactSetSize = 0;       ///< Σ over substeps and bodies of |R|
+    Index contactTruth = 0;         ///< Σ of |{φ < 0}|
+    Index contactTruePositive = 0;  ///< Σ of |R ∩ {φ < 0}|
     /// |R ∩ T| / |R| and |R ∩ T| / |T| over the frame's substeps; NaN when the set is empty.
     Real contactPrecision() const;
     Real contactRecall() const;
-    StepReport lastStep;           ///< the last substep's report of the first body (stage times)
-    int substeps = 0;              ///< the substeps the frame was simulated at (0: not simulated)
+    StepReport lastStep;  ///< the last substep's report of the first body (stage times)
+    int substeps = 0;     ///< the substeps the frame was simulated at (0: not simulated)
     /// The embedded surfaces' check at the end of the frame (geom/surface_check), summed over
     /// the bodies with a surface: a frame where a body's surface fails it is never returned by
     /// advanceTo (folds on a few triangles pass: SurfaceCheck::ok).
     Index flippedTriangles = 0;
     Index tornEdges = 0;
-    Real surfaceStretch = 0;       ///< worst edge stretch against its frames' (torn past kTearRatio)
+    Real surfaceStretch = 0;  ///< worst edge stretch against its frames' (torn past kTearRatio)
     /// Bodies re-voxelised in their current shape at the frame's start (docs/math.md,
     /// "Re-parametrisation").
     Index reparametrisations = 0;
@@ -164,8 +164,8 @@ private:
     /// the predicted (or current) positions, with the signed distance of j's lattice surface
     /// there (built once per j) and the margin i's points keep from it.
     struct PairSurface {
-        std::shared_ptr<const SdfGrid> grid;       ///< collision.distance "grid"
-        std::shared_ptr<const MeshDistance> exact; ///< collision.distance "exact"
+        std::shared_ptr<const SdfGrid> grid;        ///< collision.distance "grid"
+        std::shared_ptr<const MeshDistance> exact;  ///< collision.distance "exact"
         Real beyond = 0;  ///< exact: farther than this from the surface's box, the box's distance
         Real distance(const Vec3& x, Vec3* gradient = nullptr) const;
     };
@@ -192,7 +192,7 @@ private:
         const MeshEmbedding* embedding = nullptr;
         SurfaceCheckSetup setup;
     };
-    std::vector<Surface> mSurfaces;  ///< per object: what is checked and rendered now
+    std::vector<Surface> mSurfaces;     ///< per object: what is checked and rendered now
     std::vector<Surface> mOwnSurfaces;  ///< per object: setSurface's, on the object's own lattice
     /// A re-parametrised object: its lattice and its surface on it.
     struct Remapped {
@@ -201,10 +201,10 @@ private:
         TriangleMesh mesh;
         MeshEmbedding embedding;
     };
-    std::vector<Remapped> mRemapped;             ///< per object (count 0: on its own lattice)
-    std::vector<const Lattice*> mLattices;       ///< per object: its own lattice
-    std::vector<unsigned char> mRemapAllowed;    ///< per object: goo without pins
-    std::vector<std::string> mRemapRefused;      ///< per object: the last refusal logged
+    std::vector<Remapped> mRemapped;           ///< per object (count 0: on its own lattice)
+    std::vector<const Lattice*> mLattices;     ///< per object: its own lattice
+    std::vector<unsigned char> mRemapAllowed;  ///< per object: goo without pins
+    std::vector<std::string> mRemapRefused;    ///< per object: the last refusal logged
     ReparametriseBound mRemapBound;
     /// Re-voxelises the bodies whose lattices passed the bound; returns how many.
     Index reparametriseDistorted(int frame);
@@ -226,7 +226,7 @@ private:
     ForceField mField;
     std::vector<Collider> mColliders;
     std::vector<std::unique_ptr<DeformableBody>> mBodies;  ///< per object (null: static)
-    std::vector<std::unique_ptr<GlnNetwork>> mNetworks;     ///< per object, collision.detect = gln
+    std::vector<std::unique_ptr<GlnNetwork>> mNetworks;    ///< per object, collision.detect = gln
     bool mActive = false;
     int mFrame = 0;
 };

@@ -81,7 +81,7 @@ struct Pair {
 /// Squared residual norm (a) and squared scale (b) of the file comment.
 template <typename V, typename P>
 Pair residualParts(const Lattice& lat, const P& prob, const std::vector<unsigned char>& fixed,
-                const std::vector<unsigned char>* held, const std::vector<V>& y) {
+                   const std::vector<unsigned char>* held, const std::vector<V>& y) {
     const Pair r = parallelReduce(
         lat.size(), Pair{},
         [&](Pair& acc, Index p) {
@@ -112,12 +112,10 @@ Real residualOf(const Lattice& lat, const P& prob, const std::vector<unsigned ch
 }
 
 template <typename V, typename P>
-SolveReport iterate(const Lattice& lat, const P& prob, const std::vector<unsigned char>& fixed,
-                    const GatherSettings& s, std::vector<V>& y) {
+SolveReport iterate(const Lattice& lat, const P& prob, const std::vector<unsigned char>& fixed, const GatherSettings& s,
+                    std::vector<V>& y) {
     const auto start = std::chrono::steady_clock::now();
-    auto elapsed = [&] {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    };
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
     DGV_CHECK_EQ(static_cast<Index>(y.size()), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(fixed.size()), lat.size());
     DGV_CHECK(s.validate().empty());
@@ -196,9 +194,7 @@ SolveReport iterate(const Lattice& lat, const P& prob, const std::vector<unsigne
                 std::vector<V> yOld1(colour[1].size());
                 for (std::size_t i = 0; i < colour[1].size(); ++i) yOld1[i] = y[at(colour[1][i])];
                 loopOver(colour[0], [&](Index p) { y[at(p)] = jOld[at(p)]; });
-                loopOver(colour[1], [&](Index p) {
-                    corr[at(p)] = prob.implied(p, y) * invN[at(p)] - jOld[at(p)];
-                });
+                loopOver(colour[1], [&](Index p) { corr[at(p)] = prob.implied(p, y) * invN[at(p)] - jOld[at(p)]; });
                 // eq 33 over the second colour (C = 0 elsewhere), in a fixed order.
                 const Index n1 = static_cast<Index>(colour[1].size());
                 const Pair nd = parallelReduce(
@@ -247,18 +243,16 @@ std::vector<std::string> GatherSettings::validate() const {
     return problems;
 }
 
-SolveReport gatherFrames(const Lattice& lat, const EdgeTransports& e,
-                         const std::vector<unsigned char>& fixed, const GatherSettings& settings,
-                         std::vector<Mat3>& frames) {
+SolveReport gatherFrames(const Lattice& lat, const EdgeTransports& e, const std::vector<unsigned char>& fixed,
+                         const GatherSettings& settings, std::vector<Mat3>& frames) {
     DGV_CHECK_EQ(e.size(), lat.size());
     const FrameProblem prob{lat, e};
     return iterate<Mat3>(lat, prob, fixed, settings, frames);
 }
 
-SolveReport gatherPositions(const Lattice& lat, const EdgeTransports& e,
-                            const std::vector<Mat3>& frames,
-                            const std::vector<unsigned char>& fixed,
-                            const GatherSettings& settings, std::vector<Vec3>& positions) {
+SolveReport gatherPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                            const std::vector<unsigned char>& fixed, const GatherSettings& settings,
+                            std::vector<Vec3>& positions) {
     DGV_CHECK_EQ(e.size(), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     const auto start = std::chrono::steady_clock::now();
@@ -274,8 +268,8 @@ Real positionResidual(const Lattice& lat, const EdgeTransports& e, const std::ve
     return residualOf<Vec3>(lat, prob, fixed, nullptr, positions);
 }
 
-Real frameResidual(const Lattice& lat, const EdgeTransports& e,
-                   const std::vector<unsigned char>& fixed, const std::vector<Mat3>& frames) {
+Real frameResidual(const Lattice& lat, const EdgeTransports& e, const std::vector<unsigned char>& fixed,
+                   const std::vector<Mat3>& frames) {
     const FrameProblem prob{lat, e};
     return residualOf<Mat3>(lat, prob, fixed, nullptr, frames);
 }

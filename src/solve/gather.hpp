@@ -50,14 +50,14 @@ using WallConstraint = std::function<bool(Index point, Vec3& position)>;
 
 struct GatherSettings {
     GatherMethod method = GatherMethod::Sor;
-    Real gain = 1.9;                    ///< w of eq 30 (Sor); unused by AdaptiveGain (eq 33 does
-                                        ///< not depend on the precursor gain w_-)
+    Real gain = 1.9;  ///< w of eq 30 (Sor); unused by AdaptiveGain (eq 33 does
+                      ///< not depend on the precursor gain w_-)
     SorForm sorForm = SorForm::Standard;
-    Real tolerance = 1e-8;              ///< relative residual
+    Real tolerance = 1e-8;  ///< relative residual
     int maxIterations = 1000000;
     double maxSeconds = std::numeric_limits<double>::infinity();
-    int checkEvery = 10;                ///< sweeps between residual checks (>= 1)
-    WallConstraint wall;                ///< positions only; empty: none
+    int checkEvery = 10;  ///< sweeps between residual checks (>= 1)
+    WallConstraint wall;  ///< positions only; empty: none
 
     /// Problems by field name ("gain: must be in (0, 2)"); empty when valid.
     std::vector<std::string> validate() const;
@@ -66,22 +66,20 @@ struct GatherSettings {
 /// Gather iterations on frames (#P, columns x_a, world units per lattice step) with the
 /// transports `e`. `fixed` (#P, non-zero = pinned) marks points never updated; `frames` holds
 /// the initial guess and the result.
-SolveReport gatherFrames(const Lattice& lat, const EdgeTransports& e,
-                         const std::vector<unsigned char>& fixed, const GatherSettings& settings,
-                         std::vector<Mat3>& frames);
+SolveReport gatherFrames(const Lattice& lat, const EdgeTransports& e, const std::vector<unsigned char>& fixed,
+                         const GatherSettings& settings, std::vector<Mat3>& frames);
 
 /// Gather iterations on positions (#P, world units) given frames (#P).
-SolveReport gatherPositions(const Lattice& lat, const EdgeTransports& e,
-                            const std::vector<Mat3>& frames,
-                            const std::vector<unsigned char>& fixed,
-                            const GatherSettings& settings, std::vector<Vec3>& positions);
+SolveReport gatherPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                            const std::vector<unsigned char>& fixed, const GatherSettings& settings,
+                            std::vector<Vec3>& positions);
 
 /// The position residual defined above (no wall exclusion), for any method's result.
 Real positionResidual(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
                       const std::vector<unsigned char>& fixed, const std::vector<Vec3>& positions);
 
 /// The frame residual defined above, for any method's result.
-Real frameResidual(const Lattice& lat, const EdgeTransports& e,
-                   const std::vector<unsigned char>& fixed, const std::vector<Mat3>& frames);
+Real frameResidual(const Lattice& lat, const EdgeTransports& e, const std::vector<unsigned char>& fixed,
+                   const std::vector<Mat3>& frames);
 
 }  // namespace dgv

@@ -31,8 +31,7 @@ int slotBetween(const Lattice& lat, Index p, Index q) {
 }
 
 /// Generator S of the directed edge (p, slot).
-Mat3 generatorOf(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel, Index p,
-                 int slot) {
+Mat3 generatorOf(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel, Index p, int slot) {
     const Index q = lat.neighbours[at(p)][static_cast<std::size_t>(slot)];
     return edgeGenerator(pointConnection(christoffel, p), pointConnection(christoffel, q), slot / 2,
                          (slot & 1) ? 1 : -1);
@@ -47,8 +46,7 @@ Mat3 connectionMatrix(const PointConnection& gamma, int axis) {
     return g;
 }
 
-Mat3 edgeGenerator(const PointConnection& gammaP, const PointConnection& gammaQ, int axis,
-                   int sign) {
+Mat3 edgeGenerator(const PointConnection& gammaP, const PointConnection& gammaQ, int axis, int sign) {
     return Real(0.5 * sign) * (connectionMatrix(gammaP, axis) + connectionMatrix(gammaQ, axis));
 }
 
@@ -58,8 +56,7 @@ namespace {
 /// x^(d+1) / (d+2)! below 2^-56 (d <= 13).
 int phi1Degree(Real x) {
     int degree = 1;
-    for (Real term = x * x / Real(6); degree < 13 && term > Real(1.4e-17); ++degree)
-        term *= x / Real(degree + 3);
+    for (Real term = x * x / Real(6); degree < 13 && term > Real(1.4e-17); ++degree) term *= x / Real(degree + 3);
     return degree;
 }
 
@@ -146,10 +143,8 @@ Mat3 pathHolonomy(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& ch
     return h;
 }
 
-std::vector<Vec3> solveAlongPath(const Lattice& lat,
-                                 const std::array<std::vector<Mat3>, 3>& christoffel,
-                                 const std::vector<Mat3>& driving, const std::vector<Index>& path,
-                                 const Vec3& start) {
+std::vector<Vec3> solveAlongPath(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel,
+                                 const std::vector<Mat3>& driving, const std::vector<Index>& path, const Vec3& start) {
     DGV_CHECK_EQ(static_cast<Index>(driving.size()), lat.size());
     std::vector<Vec3> f;
     if (path.empty()) return f;
@@ -172,8 +167,7 @@ std::vector<Vec3> solveAlongPath(const Lattice& lat,
     return f;
 }
 
-EdgeTransports computeEdgeTransports(const Lattice& lat,
-                                     const std::array<std::vector<Mat3>, 3>& christoffel) {
+EdgeTransports computeEdgeTransports(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel) {
     for (const auto& g : christoffel) DGV_CHECK_EQ(static_cast<Index>(g.size()), lat.size());
     EdgeTransports e;
     const std::size_t n = at(lat.size());
@@ -183,20 +177,23 @@ EdgeTransports computeEdgeTransports(const Lattice& lat,
         e.stepFrom[at(b)].assign(n, Vec3::Zero());
         e.stepTo[at(b)].assign(n, Vec3::Zero());
     }
-    parallelFor(lat.size(), [&](Index p) {
-        for (int b = 0; b < 3; ++b) {
-            if (lat.neighbours[at(p)][at(2 * b + 1)] == kNoPoint) continue;
-            const Mat3 s = generatorOf(lat, christoffel, p, 2 * b + 1);
-            Mat3 t;
-            Vec3 a;
-            edgeTransport(s, b, t, a);
-            const Mat3 tInv = t.inverse();
-            e.forward[at(b)][at(p)] = t;
-            e.backward[at(b)][at(p)] = tInv;
-            e.stepFrom[at(b)][at(p)] = a;
-            e.stepTo[at(b)][at(p)] = tInv * a;  // φ1(-S) = exp(-S) φ1(S)
-        }
-    }, 256);
+    parallelFor(
+        lat.size(),
+        [&](Index p) {
+            for (int b = 0; b < 3; ++b) {
+                if (lat.neighbours[at(p)][at(2 * b + 1)] == kNoPoint) continue;
+                const Mat3 s = generatorOf(lat, christoffel, p, 2 * b + 1);
+                Mat3 t;
+                Vec3 a;
+                edgeTransport(s, b, t, a);
+                const Mat3 tInv = t.inverse();
+                e.forward[at(b)][at(p)] = t;
+                e.backward[at(b)][at(p)] = tInv;
+                e.stepFrom[at(b)][at(p)] = a;
+                e.stepTo[at(b)][at(p)] = tInv * a;  // φ1(-S) = exp(-S) φ1(S)
+            }
+        },
+        256);
     return e;
 }
 

@@ -35,8 +35,7 @@ using PointConnection = std::array<Mat3, 3>;
 Mat3 connectionMatrix(const PointConnection& gamma, int axis);
 
 /// Midpoint generator of the edge p -> p + sign e_axis: sign (G_axis(p) + G_axis(q)) / 2.
-Mat3 edgeGenerator(const PointConnection& gammaP, const PointConnection& gammaQ, int axis,
-                   int sign);
+Mat3 edgeGenerator(const PointConnection& gammaP, const PointConnection& gammaQ, int axis, int sign);
 
 /// exp(S) and φ1(S) = Σ_k S^k/(k+1)! together: degree-13 Taylor of φ1 after scaling S to
 /// 1-norm <= 1/4, exp(S) = 1 + S φ1(S), then squaring back (φ1(2X) = φ1(X)(exp(X) + 1)/2).
@@ -68,10 +67,8 @@ Mat3 pathHolonomy(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& ch
 /// path point, starting from f(γ_0) = `start`. Per edge: f_k = exp(-S_k) f_{k-1} plus the
 /// trapezoid rule of ∫ H(λ_k, λ') G(λ') dλ' (G^b = s G^b_{axis}, eq 16), second order.
 /// @param driving  #P matrices, driving[p](b, a) = G^b_a (the layout of covariantDerivative)
-std::vector<Vec3> solveAlongPath(const Lattice& lat,
-                                 const std::array<std::vector<Mat3>, 3>& christoffel,
-                                 const std::vector<Mat3>& driving, const std::vector<Index>& path,
-                                 const Vec3& start);
+std::vector<Vec3> solveAlongPath(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel,
+                                 const std::vector<Mat3>& driving, const std::vector<Index>& path, const Vec3& start);
 
 /// The transports of every lattice edge, stored once per edge on its lower point: for point p
 /// and axis b with q = p + e_b present (slot 2b+1), with S = S_pq:
@@ -88,8 +85,7 @@ struct EdgeTransports {
 
 /// All edge transports from the connection (parallel over points; bit-identical for any
 /// thread count).
-EdgeTransports computeEdgeTransports(const Lattice& lat,
-                                     const std::array<std::vector<Mat3>, 3>& christoffel);
+EdgeTransports computeEdgeTransports(const Lattice& lat, const std::array<std::vector<Mat3>, 3>& christoffel);
 
 /// Frame transport along the directed edge (p, slot): F(q) ≈ F(p) * result.
 inline const Mat3& frameTransport(const Lattice& lat, const EdgeTransports& e, Index p, int slot) {
@@ -102,8 +98,8 @@ inline const Mat3& frameTransport(const Lattice& lat, const EdgeTransports& e, I
 /// Position step along the directed edge (p, slot) from the frames at both ends:
 /// x(q) - x(p) ≈ (F(p) φ1(S_pq) + F(q) φ1(-S_pq)) s e_b / 2, antisymmetric in (p, q) and exact
 /// when the frames are exact and Γ is constant along the edge.
-inline Vec3 positionStep(const Lattice& lat, const EdgeTransports& e,
-                         const std::vector<Mat3>& frames, Index p, int slot) {
+inline Vec3 positionStep(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames, Index p,
+                         int slot) {
     const std::size_t axis = static_cast<std::size_t>(slot / 2);
     const Index q = lat.neighbours[static_cast<std::size_t>(p)][static_cast<std::size_t>(slot)];
     const Mat3& fp = frames[static_cast<std::size_t>(p)];

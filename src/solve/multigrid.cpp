@@ -47,8 +47,7 @@ SparseRows fromEigen(SpMat m) {
 /// Rectangular y = M x for C interleaved columns (M by rows), C known at compile time so that
 /// the inner loop unrolls.
 template <int C>
-void multiplyRowsFixed(const int* start, const int* column, const Real* value, Index rows,
-                       const Real* x, Real* y) {
+void multiplyRowsFixed(const int* start, const int* column, const Real* value, Index rows, const Real* x, Real* y) {
     parallelForBlocks(
         rows,
         [&](Index b, Index e) {
@@ -67,13 +66,21 @@ void multiplyRowsFixed(const int* start, const int* column, const Real* value, I
 }
 
 /// Rectangular y = M x for `cols` interleaved columns (M by rows).
-void multiplyRows(const std::vector<int>& start, const std::vector<int>& column,
-                  const std::vector<Real>& value, Index rows, const Real* x, Real* y, int cols) {
+void multiplyRows(const std::vector<int>& start, const std::vector<int>& column, const std::vector<Real>& value,
+                  Index rows, const Real* x, Real* y, int cols) {
     switch (cols) {
-        case 1: multiplyRowsFixed<1>(start.data(), column.data(), value.data(), rows, x, y); break;
-        case 2: multiplyRowsFixed<2>(start.data(), column.data(), value.data(), rows, x, y); break;
-        case 3: multiplyRowsFixed<3>(start.data(), column.data(), value.data(), rows, x, y); break;
-        default: multiplyRowsFixed<4>(start.data(), column.data(), value.data(), rows, x, y); break;
+        case 1:
+            multiplyRowsFixed<1>(start.data(), column.data(), value.data(), rows, x, y);
+            break;
+        case 2:
+            multiplyRowsFixed<2>(start.data(), column.data(), value.data(), rows, x, y);
+            break;
+        case 3:
+            multiplyRowsFixed<3>(start.data(), column.data(), value.data(), rows, x, y);
+            break;
+        default:
+            multiplyRowsFixed<4>(start.data(), column.data(), value.data(), rows, x, y);
+            break;
     }
 }
 
@@ -85,8 +92,8 @@ Sums columnDots(const Real* a, const Real* b, Index rows, int cols) {
         rows, Sums{0, 0, 0, 0},
         [&](Sums& s, Index i) {
             for (int c = 0; c < cols; ++c)
-                s[std::size_t(c)] += a[at(i) * std::size_t(cols) + std::size_t(c)] *
-                                     b[at(i) * std::size_t(cols) + std::size_t(c)];
+                s[std::size_t(c)] +=
+                    a[at(i) * std::size_t(cols) + std::size_t(c)] * b[at(i) * std::size_t(cols) + std::size_t(c)];
         },
         [](Sums x, const Sums& y) {
             for (std::size_t c = 0; c < kMaxCols; ++c) x[c] += y[c];
@@ -134,13 +141,17 @@ struct Level {
     mutable Work<float> wf;
     template <typename T>
     Work<T>& work() const {
-        if constexpr (std::is_same_v<T, float>) return wf;
-        else return wd;
+        if constexpr (std::is_same_v<T, float>)
+            return wf;
+        else
+            return wd;
     }
     template <typename T>
     const T* invD() const {
-        if constexpr (std::is_same_v<T, float>) return invDiagR.data();
-        else return invDiag.data();
+        if constexpr (std::is_same_v<T, float>)
+            return invDiagR.data();
+        else
+            return invDiag.data();
     }
 };
 
@@ -194,21 +205,34 @@ template <typename T, typename F>
 void dispatch(const Level& L, int cols, F&& f) {
     auto go = [&](const auto& rows) {
         switch (cols) {
-            case 1: f.template run<1>(rows); break;
-            case 2: f.template run<2>(rows); break;
-            case 3: f.template run<3>(rows); break;
-            default: f.template run<4>(rows); break;
+            case 1:
+                f.template run<1>(rows);
+                break;
+            case 2:
+                f.template run<2>(rows);
+                break;
+            case 3:
+                f.template run<3>(rows);
+                break;
+            default:
+                f.template run<4>(rows);
+                break;
         }
     };
     const int* st = L.A.start.data();
     const int* col = L.A.column.data();
     if constexpr (std::is_same_v<T, float>) {
-        if (L.unit) go(UnitRows<float>{st, col, L.diagR.data()});
-        else go(ValuedRows<float>{st, col, L.valueR.data()});
+        if (L.unit)
+            go(UnitRows<float>{st, col, L.diagR.data()});
+        else
+            go(ValuedRows<float>{st, col, L.valueR.data()});
     } else {
-        if (L.unit) go(UnitRows<Real>{st, col, L.diag.data()});
-        else if (!L.valueF.empty()) go(ValuedRows<float>{st, col, L.valueF.data()});
-        else go(ValuedRows<Real>{st, col, L.A.value.data()});
+        if (L.unit)
+            go(UnitRows<Real>{st, col, L.diag.data()});
+        else if (!L.valueF.empty())
+            go(ValuedRows<float>{st, col, L.valueF.data()});
+        else
+            go(ValuedRows<Real>{st, col, L.A.value.data()});
     }
 }
 
@@ -243,10 +267,12 @@ struct SmoothPasses {
                 // x += d (x = d for a zero start with degree 1)
                 T* xx = x;
                 const bool assign = zero && first;
-                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
-                    for (std::size_t k = at(b0) * C; k < at(e0) * C; ++k)
-                        xx[k] = assign ? d[k] : xx[k] + d[k];
-                }, kRowGrain);
+                parallelForBlocks(
+                    L.A.rows,
+                    [&](Index b0, Index e0) {
+                        for (std::size_t k = at(b0) * C; k < at(e0) * C; ++k) xx[k] = assign ? d[k] : xx[k] + d[k];
+                    },
+                    kRowGrain);
                 break;
             }
             const T rhoNew = T(1) / (2 * sigma - rho);
@@ -254,25 +280,28 @@ struct SmoothPasses {
             const bool assign = zero && first;
             const bool last = step + 1 == degree;
             T* xx = x;
-            parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
-                for (Index i = b0; i < e0; ++i) {
-                    T t[C];
-                    rows.template row<C, T>(i, d, t);
-                    for (int c = 0; c < C; ++c) {
-                        const std::size_t k = at(i) * C + std::size_t(c);
-                        const T rk = r[k] - invDiag[i] * t[c];
-                        const T dk = c1 * d[k] + c2 * rk;
-                        T xk = assign ? d[k] : xx[k] + d[k];
-                        if (last) {
-                            xx[k] = xk + dk;  // r and d are not needed after the last step
-                        } else {
-                            xx[k] = xk;
-                            r[k] = rk;
-                            dn[k] = dk;
+            parallelForBlocks(
+                L.A.rows,
+                [&](Index b0, Index e0) {
+                    for (Index i = b0; i < e0; ++i) {
+                        T t[C];
+                        rows.template row<C, T>(i, d, t);
+                        for (int c = 0; c < C; ++c) {
+                            const std::size_t k = at(i) * C + std::size_t(c);
+                            const T rk = r[k] - invDiag[i] * t[c];
+                            const T dk = c1 * d[k] + c2 * rk;
+                            T xk = assign ? d[k] : xx[k] + d[k];
+                            if (last) {
+                                xx[k] = xk + dk;  // r and d are not needed after the last step
+                            } else {
+                                xx[k] = xk;
+                                r[k] = rk;
+                                dn[k] = dk;
+                            }
                         }
                     }
-                }
-            }, kRowGrain);
+                },
+                kRowGrain);
             std::swap(d, dn);
             rho = rhoNew;
             first = false;
@@ -291,49 +320,62 @@ struct SmoothPasses {
         T* xx = x;
         switch (kind) {
             case Kind::Pre:
-                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
-                    for (Index i = b0; i < e0; ++i)
-                        for (int c = 0; c < C; ++c) {
-                            const std::size_t k = at(i) * C + std::size_t(c);
-                            r[k] = invDiag[i] * (bb[k] - T(0));
-                            d[k] = r[k] / theta;
-                        }
-                }, kRowGrain);
+                parallelForBlocks(
+                    L.A.rows,
+                    [&](Index b0, Index e0) {
+                        for (Index i = b0; i < e0; ++i)
+                            for (int c = 0; c < C; ++c) {
+                                const std::size_t k = at(i) * C + std::size_t(c);
+                                r[k] = invDiag[i] * (bb[k] - T(0));
+                                d[k] = r[k] / theta;
+                            }
+                    },
+                    kRowGrain);
                 chebyshev<C>(rows, true);
                 break;
             case Kind::Post:
-                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
-                    for (Index i = b0; i < e0; ++i) {
-                        T ax[C];
-                        rows.template row<C, T>(i, xx, ax);
-                        for (int c = 0; c < C; ++c) {
-                            const std::size_t k = at(i) * C + std::size_t(c);
-                            r[k] = invDiag[i] * (bb[k] - ax[c]);
-                            d[k] = r[k] / theta;
+                parallelForBlocks(
+                    L.A.rows,
+                    [&](Index b0, Index e0) {
+                        for (Index i = b0; i < e0; ++i) {
+                            T ax[C];
+                            rows.template row<C, T>(i, xx, ax);
+                            for (int c = 0; c < C; ++c) {
+                                const std::size_t k = at(i) * C + std::size_t(c);
+                                r[k] = invDiag[i] * (bb[k] - ax[c]);
+                                d[k] = r[k] / theta;
+                            }
                         }
-                    }
-                }, kRowGrain);
+                    },
+                    kRowGrain);
                 chebyshev<C>(rows, false);
                 break;
             case Kind::Residual:
-                parallelForBlocks(L.A.rows, [&](Index b0, Index e0) {
-                    for (Index i = b0; i < e0; ++i) {
-                        T ax[C];
-                        rows.template row<C, T>(i, xx, ax);
-                        for (int c = 0; c < C; ++c) t[at(i) * C + std::size_t(c)] = bb[at(i) * C + std::size_t(c)] - ax[c];
-                    }
-                }, kRowGrain);
+                parallelForBlocks(
+                    L.A.rows,
+                    [&](Index b0, Index e0) {
+                        for (Index i = b0; i < e0; ++i) {
+                            T ax[C];
+                            rows.template row<C, T>(i, xx, ax);
+                            for (int c = 0; c < C; ++c)
+                                t[at(i) * C + std::size_t(c)] = bb[at(i) * C + std::size_t(c)] - ax[c];
+                        }
+                    },
+                    kRowGrain);
                 break;
             case Kind::Prolong: {
                 const T* cc = xc;
                 auto prolong = [&](const auto& p) {
-                    parallelForBlocks(L.P.rows, [&](Index b0, Index e0) {
-                        for (Index i = b0; i < e0; ++i) {
-                            T px[C];
-                            p.template row<C, T>(i, cc, px);
-                            for (int c = 0; c < C; ++c) xx[at(i) * C + std::size_t(c)] += px[c];
-                        }
-                    }, kRowGrain);
+                    parallelForBlocks(
+                        L.P.rows,
+                        [&](Index b0, Index e0) {
+                            for (Index i = b0; i < e0; ++i) {
+                                T px[C];
+                                p.template row<C, T>(i, cc, px);
+                                for (int c = 0; c < C; ++c) xx[at(i) * C + std::size_t(c)] += px[c];
+                            }
+                        },
+                        kRowGrain);
                 };
                 if constexpr (std::is_same_v<T, float>)
                     prolong(ValuedRows<float>{L.P.start.data(), L.P.column.data(), L.pValueR.data()});
@@ -348,13 +390,16 @@ struct SmoothPasses {
 /// Rectangular y = M x (M by rows, `rows` row products), C interleaved columns, in T.
 template <int C, typename T, typename Rows>
 void multiplyRowsWith(const Rows& m, Index n, const T* x, T* y) {
-    parallelForBlocks(n, [&](Index b, Index e) {
-        for (Index i = b; i < e; ++i) {
-            T acc[C];
-            m.template row<C, T>(i, x, acc);
-            for (int c = 0; c < C; ++c) y[at(i) * C + std::size_t(c)] = acc[c];
-        }
-    }, kRowGrain);
+    parallelForBlocks(
+        n,
+        [&](Index b, Index e) {
+            for (Index i = b; i < e; ++i) {
+                T acc[C];
+                m.template row<C, T>(i, x, acc);
+                for (int c = 0; c < C; ++c) y[at(i) * C + std::size_t(c)] = acc[c];
+            }
+        },
+        kRowGrain);
 }
 
 /// The restriction b_c = R t of level L in T.
@@ -362,10 +407,18 @@ template <typename T>
 void restrictTo(const Level& L, const T* t, T* bc, int cols) {
     auto go = [&](const auto& rows) {
         switch (cols) {
-            case 1: multiplyRowsWith<1>(rows, L.R.rows, t, bc); break;
-            case 2: multiplyRowsWith<2>(rows, L.R.rows, t, bc); break;
-            case 3: multiplyRowsWith<3>(rows, L.R.rows, t, bc); break;
-            default: multiplyRowsWith<4>(rows, L.R.rows, t, bc); break;
+            case 1:
+                multiplyRowsWith<1>(rows, L.R.rows, t, bc);
+                break;
+            case 2:
+                multiplyRowsWith<2>(rows, L.R.rows, t, bc);
+                break;
+            case 3:
+                multiplyRowsWith<3>(rows, L.R.rows, t, bc);
+                break;
+            default:
+                multiplyRowsWith<4>(rows, L.R.rows, t, bc);
+                break;
         }
     };
     if constexpr (std::is_same_v<T, float>)
@@ -444,23 +497,32 @@ Sums updateDotFixed(Index n, Real* X, Real* R, const Real* P, const Real* Q, con
 Sums multiplyDot(const SparseRows& A, const Level* fine, const Real* p, Real* q, int cols) {
     auto go = [&](const auto& rows) {
         switch (cols) {
-            case 1: return multiplyDotFixed<1>(rows, A.rows, p, q);
-            case 2: return multiplyDotFixed<2>(rows, A.rows, p, q);
-            case 3: return multiplyDotFixed<3>(rows, A.rows, p, q);
-            default: return multiplyDotFixed<4>(rows, A.rows, p, q);
+            case 1:
+                return multiplyDotFixed<1>(rows, A.rows, p, q);
+            case 2:
+                return multiplyDotFixed<2>(rows, A.rows, p, q);
+            case 3:
+                return multiplyDotFixed<3>(rows, A.rows, p, q);
+            default:
+                return multiplyDotFixed<4>(rows, A.rows, p, q);
         }
     };
     if (fine && fine->unit) return go(UnitRows<Real>{A.start.data(), A.column.data(), fine->diag.data()});
-    if (fine && !fine->valueF.empty()) return go(ValuedRows<float>{A.start.data(), A.column.data(), fine->valueF.data()});
+    if (fine && !fine->valueF.empty())
+        return go(ValuedRows<float>{A.start.data(), A.column.data(), fine->valueF.data()});
     return go(ValuedRows<Real>{A.start.data(), A.column.data(), A.value.data()});
 }
 
 Sums updateDot(Index n, Real* X, Real* R, const Real* P, const Real* Q, const Sums& alpha, int cols) {
     switch (cols) {
-        case 1: return updateDotFixed<1>(n, X, R, P, Q, alpha);
-        case 2: return updateDotFixed<2>(n, X, R, P, Q, alpha);
-        case 3: return updateDotFixed<3>(n, X, R, P, Q, alpha);
-        default: return updateDotFixed<4>(n, X, R, P, Q, alpha);
+        case 1:
+            return updateDotFixed<1>(n, X, R, P, Q, alpha);
+        case 2:
+            return updateDotFixed<2>(n, X, R, P, Q, alpha);
+        case 3:
+            return updateDotFixed<3>(n, X, R, P, Q, alpha);
+        default:
+            return updateDotFixed<4>(n, X, R, P, Q, alpha);
     }
 }
 
@@ -475,19 +537,23 @@ struct AggregationMultigrid::Impl {
     MultigridSettings settings;
     std::vector<Level> levels;
     Eigen::LDLT<Eigen::MatrixXd> coarsest;
-    mutable std::vector<std::vector<Real>> rhs, sol;    ///< per level b and x
+    mutable std::vector<std::vector<Real>> rhs, sol;     ///< per level b and x
     mutable std::vector<std::vector<float>> rhsF, solF;  ///< the same for the float V-cycle
     double seconds = 0;
 
     template <typename T>
     std::vector<std::vector<T>>& rhsOf() const {
-        if constexpr (std::is_same_v<T, float>) return rhsF;
-        else return rhs;
+        if constexpr (std::is_same_v<T, float>)
+            return rhsF;
+        else
+            return rhs;
     }
     template <typename T>
     std::vector<std::vector<T>>& solOf() const {
-        if constexpr (std::is_same_v<T, float>) return solF;
-        else return sol;
+        if constexpr (std::is_same_v<T, float>)
+            return solF;
+        else
+            return sol;
     }
 
     /// Chebyshev smoothing of level l on x (zero: x starts at 0), fused passes (SmoothPasses).
@@ -553,10 +619,10 @@ AggregationMultigrid::AggregationMultigrid(const SparseRows& A, const std::vecto
         L.invDiag.assign(at(n), 0);
         for (Index i = 0; i < n; ++i)
             for (int k = L.A.start[at(i)]; k < L.A.start[at(i) + 1]; ++k)
-                if (L.A.column[static_cast<std::size_t>(k)] == i) L.invDiag[at(i)] = Real(1) / L.A.value[static_cast<std::size_t>(k)];
+                if (L.A.column[static_cast<std::size_t>(k)] == i)
+                    L.invDiag[at(i)] = Real(1) / L.A.value[static_cast<std::size_t>(k)];
         for (Index i = 0; i < n; ++i) DGV_CHECK(L.invDiag[at(i)] > 0);
-        if (std::all_of(L.A.value.begin(), L.A.value.end(),
-                        [](Real v) { return Real(static_cast<float>(v)) == v; }))
+        if (std::all_of(L.A.value.begin(), L.A.value.end(), [](Real v) { return Real(static_cast<float>(v)) == v; }))
             L.valueF.assign(L.A.value.begin(), L.A.value.end());
         const Real rho = spectralRadius(L.A, L.invDiag);
         L.lmax = rho;
@@ -616,11 +682,15 @@ AggregationMultigrid::AggregationMultigrid(const SparseRows& A, const std::vecto
         for (Index i = 0; i < L.A.rows; ++i)
             for (int k = L.A.start[at(i)]; k < L.A.start[at(i) + 1]; ++k) {
                 const Real v = L.A.value[static_cast<std::size_t>(k)];
-                if (L.A.column[static_cast<std::size_t>(k)] == i) L.diag[at(i)] = v;
-                else if (v != Real(-1)) L.unit = false;
+                if (L.A.column[static_cast<std::size_t>(k)] == i)
+                    L.diag[at(i)] = v;
+                else if (v != Real(-1))
+                    L.unit = false;
             }
-        if (L.unit) L.valueF.clear();  // unit rows read no values
-        else L.diag.clear();
+        if (L.unit)
+            L.valueF.clear();  // unit rows read no values
+        else
+            L.diag.clear();
         if (settings.floatCycle) {
             auto toFloat = [](const std::vector<Real>& v) { return std::vector<float>(v.begin(), v.end()); };
             if (!L.unit) L.valueR = toFloat(L.A.value);
@@ -655,17 +725,24 @@ void AggregationMultigrid::apply(const Real* r, Real* z, int cols) const {
     std::vector<float>& x = m.solF[0];
     b.resize(len);
     x.resize(len);
-    parallelForBlocks(rows, [&](Index b0, Index e0) {
-        for (Index i = b0; i < e0; ++i)
-            for (int c = 0; c < kMaxCols; ++c)
-                b[at(i) * kMaxCols + std::size_t(c)] = c < cols ? float(r[at(i) * std::size_t(cols) + std::size_t(c)]) : 0.0f;
-    }, kRowGrain);
+    parallelForBlocks(
+        rows,
+        [&](Index b0, Index e0) {
+            for (Index i = b0; i < e0; ++i)
+                for (int c = 0; c < kMaxCols; ++c)
+                    b[at(i) * kMaxCols + std::size_t(c)] =
+                        c < cols ? float(r[at(i) * std::size_t(cols) + std::size_t(c)]) : 0.0f;
+        },
+        kRowGrain);
     m.cycle<float>(0, b.data(), x.data(), kMaxCols);
-    parallelForBlocks(rows, [&](Index b0, Index e0) {
-        for (Index i = b0; i < e0; ++i)
-            for (int c = 0; c < cols; ++c)
-                z[at(i) * std::size_t(cols) + std::size_t(c)] = Real(x[at(i) * kMaxCols + std::size_t(c)]);
-    }, kRowGrain);
+    parallelForBlocks(
+        rows,
+        [&](Index b0, Index e0) {
+            for (Index i = b0; i < e0; ++i)
+                for (int c = 0; c < cols; ++c)
+                    z[at(i) * std::size_t(cols) + std::size_t(c)] = Real(x[at(i) * kMaxCols + std::size_t(c)]);
+        },
+        kRowGrain);
 }
 
 const SparseRows& AggregationMultigrid::matrix() const { return mImpl->levels.front().A; }
@@ -673,9 +750,8 @@ int AggregationMultigrid::levels() const { return static_cast<int>(mImpl->levels
 Index AggregationMultigrid::rowsAt(int level) const { return mImpl->levels[static_cast<std::size_t>(level)].A.rows; }
 double AggregationMultigrid::setupSeconds() const { return mImpl->seconds; }
 
-SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* mg,
-                               const std::vector<Real>& B, std::vector<Real>& X, int cols,
-                               Real tolerance, Real scale, int maxIterations,
+SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* mg, const std::vector<Real>& B,
+                               std::vector<Real>& X, int cols, Real tolerance, Real scale, int maxIterations,
                                CgWorkspace* workspace) {
     const auto start = std::chrono::steady_clock::now();
     DGV_CHECK(cols >= 1 && cols <= kMaxCols);
@@ -700,13 +776,15 @@ SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* 
         invDiag.assign(at(n), 0);
         for (Index i = 0; i < n; ++i)
             for (int k = A.start[at(i)]; k < A.start[at(i) + 1]; ++k)
-                if (A.column[static_cast<std::size_t>(k)] == i) invDiag[at(i)] = Real(1) / A.value[static_cast<std::size_t>(k)];
+                if (A.column[static_cast<std::size_t>(k)] == i)
+                    invDiag[at(i)] = Real(1) / A.value[static_cast<std::size_t>(k)];
     }
     auto precondition = [&](const std::vector<Real>& r, std::vector<Real>& z) {
         if (mg) {
             mg->apply(r.data(), z.data(), cols);
         } else {
-            parallelFor(Index(len), [&](Index k) { z[at(k)] = invDiag[at(k) / std::size_t(cols)] * r[at(k)]; }, 4 * kRowGrain);
+            parallelFor(
+                Index(len), [&](Index k) { z[at(k)] = invDiag[at(k) / std::size_t(cols)] * r[at(k)]; }, 4 * kRowGrain);
         }
     };
     auto total = [&](const Sums& s) {
@@ -715,7 +793,8 @@ SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* 
         return t;
     };
     (void)multiplyDot(A, fine, X.data(), Q.data(), cols);
-    parallelFor(Index(len), [&](Index k) { R[at(k)] = B[at(k)] - Q[at(k)]; }, 4 * kRowGrain);
+    parallelFor(
+        Index(len), [&](Index k) { R[at(k)] = B[at(k)] - Q[at(k)]; }, 4 * kRowGrain);
     if (!(scale > 0)) scale = std::sqrt(total(columnDots(B.data(), B.data(), n, cols)));
     if (!(scale > 0)) scale = 1;
     SolveReport report;
@@ -752,12 +831,15 @@ SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* 
         for (int c = 0; c < cols; ++c)
             beta[std::size_t(c)] = rz[std::size_t(c)] > 0 ? rzNew[std::size_t(c)] / rz[std::size_t(c)] : Real(0);
         rz = rzNew;
-        parallelFor(n, [&](Index i) {
-            for (int c = 0; c < cols; ++c) {
-                const std::size_t k = at(i) * std::size_t(cols) + std::size_t(c);
-                P[k] = Z[k] + beta[std::size_t(c)] * P[k];
-            }
-        }, kRowGrain);
+        parallelFor(
+            n,
+            [&](Index i) {
+                for (int c = 0; c < cols; ++c) {
+                    const std::size_t k = at(i) * std::size_t(cols) + std::size_t(c);
+                    P[k] = Z[k] + beta[std::size_t(c)] * P[k];
+                }
+            },
+            kRowGrain);
     }
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return report;

@@ -43,8 +43,8 @@ struct MultigridSettings {
     int aggregateSize = 3;     ///< aggregate edge, in lattice sites of the level below
     Index coarsestRows = 800;  ///< solve directly at or below this many rows
     int maxLevels = 12;
-    int smootherDegree = 2;    ///< Chebyshev degree, before and after the coarse correction
-    Real eigenRatio = 10;      ///< the smoother damps D^-1 A eigenvalues in [rho/ratio, 1.1 rho]
+    int smootherDegree = 2;  ///< Chebyshev degree, before and after the coarse correction
+    Real eigenRatio = 10;    ///< the smoother damps D^-1 A eigenvalues in [rho/ratio, 1.1 rho]
     /// Aggregate each parity class (i mod 2, j mod 2, k mod 2) of the sites separately: an
     /// aggregate is the sites of one class in a block of (2 aggregateSize)^3, so the coarse space
     /// carries every sign pattern (-1)^(i+j), (-1)^(i+j+k), ... times a smooth envelope. For
@@ -64,8 +64,7 @@ class AggregationMultigrid {
 public:
     /// Builds the hierarchy of `A` (SPD; copied) whose row i is the lattice site coords[i]
     /// (non-negative). Rows with no entry must not occur.
-    AggregationMultigrid(const SparseRows& A, const std::vector<Vec3i>& coords,
-                         const MultigridSettings& settings = {});
+    AggregationMultigrid(const SparseRows& A, const std::vector<Vec3i>& coords, const MultigridSettings& settings = {});
     ~AggregationMultigrid();
     AggregationMultigrid(const AggregationMultigrid&) = delete;
     AggregationMultigrid& operator=(const AggregationMultigrid&) = delete;
@@ -81,9 +80,8 @@ public:
 private:
     struct Impl;
     std::unique_ptr<Impl> mImpl;
-    friend SolveReport conjugateGradients(const SparseRows&, const AggregationMultigrid*,
-                                          const std::vector<Real>&, std::vector<Real>&, int, Real,
-                                          Real, int, CgWorkspace*);
+    friend SolveReport conjugateGradients(const SparseRows&, const AggregationMultigrid*, const std::vector<Real>&,
+                                          std::vector<Real>&, int, Real, Real, int, CgWorkspace*);
 };
 
 /// Conjugate gradients on A X = B for `cols` interleaved columns (independent CG recurrences,
@@ -96,9 +94,8 @@ struct CgWorkspace {
     std::vector<Real> r, z, p, q;
 };
 
-SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* mg,
-                               const std::vector<Real>& B, std::vector<Real>& X, int cols,
-                               Real tolerance, Real scale, int maxIterations,
+SolveReport conjugateGradients(const SparseRows& A, const AggregationMultigrid* mg, const std::vector<Real>& B,
+                               std::vector<Real>& X, int cols, Real tolerance, Real scale, int maxIterations,
                                CgWorkspace* workspace = nullptr);
 
 }  // namespace dgv

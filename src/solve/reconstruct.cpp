@@ -32,10 +32,18 @@ std::vector<std::string> ReconstructSettings::validate() const { return gather()
 GatherSettings ReconstructSettings::gather() const {
     GatherSettings g;
     switch (method) {
-        case ReconstructMethod::Jacobi: g.method = GatherMethod::Jacobi; break;
-        case ReconstructMethod::JacobiSummed: g.method = GatherMethod::JacobiSummed; break;
-        case ReconstructMethod::AdaptiveGain: g.method = GatherMethod::AdaptiveGain; break;
-        default: g.method = GatherMethod::Sor; break;
+        case ReconstructMethod::Jacobi:
+            g.method = GatherMethod::Jacobi;
+            break;
+        case ReconstructMethod::JacobiSummed:
+            g.method = GatherMethod::JacobiSummed;
+            break;
+        case ReconstructMethod::AdaptiveGain:
+            g.method = GatherMethod::AdaptiveGain;
+            break;
+        default:
+            g.method = GatherMethod::Sor;
+            break;
     }
     g.gain = gain;
     g.sorForm = sorForm;
@@ -65,8 +73,7 @@ std::vector<unsigned char> fixedFrameMask(const Lattice& lat, const std::vector<
     return m;
 }
 
-std::vector<Pin> centrePins(const Lattice& lat, const std::vector<Vec3>& positions,
-                            const std::vector<Mat3>& frames) {
+std::vector<Pin> centrePins(const Lattice& lat, const std::vector<Vec3>& positions, const std::vector<Mat3>& frames) {
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     const std::size_t nc = static_cast<std::size_t>(lat.components);
@@ -128,8 +135,8 @@ SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& 
     return tree;
 }
 
-void integrateFramesAlongTree(const Lattice& lat, const EdgeTransports& e,
-                              const std::vector<Pin>& pins, std::vector<Mat3>& frames) {
+void integrateFramesAlongTree(const Lattice& lat, const EdgeTransports& e, const std::vector<Pin>& pins,
+                              std::vector<Mat3>& frames) {
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     for (const Pin& pin : pins)
         if (pin.fixFrame) frames[at(pin.point)] = pin.frame;
@@ -141,9 +148,8 @@ void integrateFramesAlongTree(const Lattice& lat, const EdgeTransports& e,
     }
 }
 
-void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e,
-                                 const std::vector<Mat3>& frames, const std::vector<Pin>& pins,
-                                 std::vector<Vec3>& positions) {
+void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                                 const std::vector<Pin>& pins, std::vector<Vec3>& positions) {
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     for (const Pin& pin : pins)
@@ -156,9 +162,8 @@ void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e,
     }
 }
 
-SolveReport reconstructFrames(const Lattice& lat, const EdgeTransports& e,
-                              const std::vector<Pin>& pins, const ReconstructSettings& settings,
-                              std::vector<Mat3>& frames) {
+SolveReport reconstructFrames(const Lattice& lat, const EdgeTransports& e, const std::vector<Pin>& pins,
+                              const ReconstructSettings& settings, std::vector<Mat3>& frames) {
     const auto start = std::chrono::steady_clock::now();
     DGV_CHECK(settings.validate().empty());
     DGV_CHECK(!pins.empty());
@@ -174,8 +179,7 @@ SolveReport reconstructFrames(const Lattice& lat, const EdgeTransports& e,
         frames.assign(at(lat.size()), first);
     }
     SolveReport report;
-    if (settings.method == ReconstructMethod::Path ||
-        settings.method == ReconstructMethod::LeastSquares) {
+    if (settings.method == ReconstructMethod::Path || settings.method == ReconstructMethod::LeastSquares) {
         integrateFramesAlongTree(lat, e, pins, frames);
         report.converged = true;
         report.residual = frameResidual(lat, e, fixed, frames);
@@ -188,10 +192,9 @@ SolveReport reconstructFrames(const Lattice& lat, const EdgeTransports& e,
     return report;
 }
 
-SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
-                                 const std::vector<Mat3>& frames, const std::vector<Pin>& pins,
-                                 const ReconstructSettings& settings, std::vector<Vec3>& positions,
-                                 const PoissonSolver* solver) {
+SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                                 const std::vector<Pin>& pins, const ReconstructSettings& settings,
+                                 std::vector<Vec3>& positions, const PoissonSolver* solver) {
     const auto start = std::chrono::steady_clock::now();
     DGV_CHECK(settings.validate().empty());
     DGV_CHECK(!pins.empty());
@@ -223,8 +226,7 @@ SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
                 solver = own.get();
             }
             report = solver->solve(lat, e, frames, positions, settings.tolerance,
-                                   std::min(settings.maxIterations, 1000),
-                                   cold || settings.startFromPath);
+                                   std::min(settings.maxIterations, 1000), cold || settings.startFromPath);
             if (settings.wall && report.converged) {
                 GatherSettings g = settings.gather();
                 g.method = GatherMethod::Sor;
@@ -251,8 +253,7 @@ SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
     return report;
 }
 
-void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
-                           const std::array<std::vector<Mat3>, 3>& gamma0,
+void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree, const std::array<std::vector<Mat3>, 3>& gamma0,
                            const std::array<std::vector<Mat3>, 3>& gamma1, const std::vector<Mat3>& frames,
                            ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward,
                            int frameSweeps) {
@@ -361,9 +362,12 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                          std::array<std::vector<Mat3>, 3>& down, std::vector<Mat3>& treeT, bool first) {
         for (int b = 0; b < 3; ++b) {
             const std::size_t bb = at(b);
-            parallelForBlocks(n, [&](Index begin, Index end) {
-                sweptEdges(gamma, b, begin, end, from[bb], to[bb], up[bb], down[bb], treeT, first);
-            }, 1024);
+            parallelForBlocks(
+                n,
+                [&](Index begin, Index end) {
+                    sweptEdges(gamma, b, begin, end, from[bb], to[bb], up[bb], down[bb], treeT, first);
+                },
+                1024);
         }
     };
     if (sweeping) {
@@ -374,15 +378,18 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
                             std::array<std::vector<Vec3>, 3>& to, std::vector<Mat3>& treeT) {
             for (int b = 0; b < 3; ++b) {
                 const std::size_t bb = at(b);
-                parallelFor(n, [&](Index p) {
-                    const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
-                    if (q == kNoPoint) {
-                        from[bb][at(p)].setZero();
-                        to[bb][at(p)].setZero();
-                    } else {
-                        treeEdge(gamma, p, b, q, from[bb][at(p)], to[bb][at(p)], treeT);
-                    }
-                }, 1024);
+                parallelFor(
+                    n,
+                    [&](Index p) {
+                        const Index q = lat.neighbours[at(p)][at(2 * b + 1)];
+                        if (q == kNoPoint) {
+                            from[bb][at(p)].setZero();
+                            to[bb][at(p)].setZero();
+                        } else {
+                            treeEdge(gamma, p, b, q, from[bb][at(p)], to[bb][at(p)], treeT);
+                        }
+                    },
+                    1024);
             }
         };
         treePass(gamma0, w.from0, w.to0, w.tree0);
@@ -466,12 +473,17 @@ void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
     };
     for (int k = 0; k < frameSweeps; ++k)
         for (const std::vector<Index>& list : w.swept)  // one field at a time: measured, both in one
-            for (int field = 0; field < 2; ++field)      // pass took twice as long (twice the streams)
-                parallelFor(static_cast<Index>(list.size()), [&](Index i) {
-                    const Index q = list[at(i)];
-                    if (field == 0) w.frames0[at(q)] = meanFrame(w.up0, w.down0, w.frames0, q);
-                    else w.frames1[at(q)] = meanFrame(w.up1, w.down1, w.frames1, q);
-                }, 512);
+            for (int field = 0; field < 2; ++field)     // pass took twice as long (twice the streams)
+                parallelFor(
+                    static_cast<Index>(list.size()),
+                    [&](Index i) {
+                        const Index q = list[at(i)];
+                        if (field == 0)
+                            w.frames0[at(q)] = meanFrame(w.up0, w.down0, w.frames0, q);
+                        else
+                            w.frames1[at(q)] = meanFrame(w.up1, w.down1, w.frames1, q);
+                    },
+                    512);
     w.sweepSeconds = lap();
     // D1 − D0 per edge (positionStep's arithmetic).
     parallelFor(n, [&](Index p) {

@@ -50,13 +50,13 @@ struct Pin {
 
 struct ReconstructSettings {
     ReconstructMethod method = ReconstructMethod::LeastSquares;
-    Real tolerance = 1e-8;   ///< relative residual (gather.hpp) for iterative solves
+    Real tolerance = 1e-8;        ///< relative residual (gather.hpp) for iterative solves
     int maxIterations = 1000000;  ///< sweeps (gather) or CG iterations (LeastSquares, capped at 1000)
-    double maxSeconds = 60;  ///< per call, iterative methods
+    double maxSeconds = 60;       ///< per call, iterative methods
     int checkEvery = 10;
-    Real gain = 1.9;         ///< SOR gain w (eq 30)
+    Real gain = 1.9;  ///< SOR gain w (eq 30)
     SorForm sorForm = SorForm::Standard;
-    WallConstraint wall;     ///< optional, positions only
+    WallConstraint wall;  ///< optional, positions only
     /// LeastSquares: start from the Path positions (true; O(N), usually the better start) or
     /// from the positions passed in when they have #P entries (false: a warm start from the
     /// last step). Measured in docs/solvers.md.
@@ -70,24 +70,21 @@ struct ReconstructSettings {
 
 /// Pins of a reference state: the point nearest the centroid of each 6-connected component,
 /// fixed at the given positions and frames (#P each).
-std::vector<Pin> centrePins(const Lattice& lat, const std::vector<Vec3>& positions,
-                            const std::vector<Mat3>& frames);
+std::vector<Pin> centrePins(const Lattice& lat, const std::vector<Vec3>& positions, const std::vector<Mat3>& frames);
 
 /// Frames (#P, in/out) from the transports and the pinned frames. Iterative methods report the
 /// frame residual of gather.hpp; Path and LeastSquares report iterations 0, converged true and,
 /// for information, the same residual of their result (it measures the path dependence,
 /// O(h^2) for a connection computed from positions).
-SolveReport reconstructFrames(const Lattice& lat, const EdgeTransports& e,
-                              const std::vector<Pin>& pins, const ReconstructSettings& settings,
-                              std::vector<Mat3>& frames);
+SolveReport reconstructFrames(const Lattice& lat, const EdgeTransports& e, const std::vector<Pin>& pins,
+                              const ReconstructSettings& settings, std::vector<Mat3>& frames);
 
 /// Positions (#P, in/out) from frames (#P) and the pinned positions. LeastSquares uses `solver`
 /// when it matches the lattice and the fixed set, else builds one (its setup time is then inside
 /// the report's seconds); keep one PoissonSolver per lattice and pin set across steps.
-SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e,
-                                 const std::vector<Mat3>& frames, const std::vector<Pin>& pins,
-                                 const ReconstructSettings& settings, std::vector<Vec3>& positions,
-                                 const PoissonSolver* solver = nullptr);
+SolveReport reconstructPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                                 const std::vector<Pin>& pins, const ReconstructSettings& settings,
+                                 std::vector<Vec3>& positions, const PoissonSolver* solver = nullptr);
 
 /// The fixed masks (#P, 1 = fixed) of the pins, for positions and for frames.
 std::vector<unsigned char> fixedPositionMask(const Lattice& lat, const std::vector<Pin>& pins);
@@ -97,9 +94,9 @@ std::vector<unsigned char> fixedFrameMask(const Lattice& lat, const std::vector<
 /// point order), neighbours in slot order, so deterministic. Kept by callers that integrate
 /// along the same tree repeatedly (the dynamics, twice a step).
 struct SpanningTree {
-    std::vector<Index> order;        ///< visit order, roots first; unreached points absent
-    std::vector<Index> parent;       ///< #P: the tree parent (kNoPoint: a root or unreached)
-    std::vector<signed char> slot;   ///< #P: slot of the edge parent -> point (-1: none)
+    std::vector<Index> order;           ///< visit order, roots first; unreached points absent
+    std::vector<Index> parent;          ///< #P: the tree parent (kNoPoint: a root or unreached)
+    std::vector<signed char> slot;      ///< #P: slot of the edge parent -> point (-1: none)
     std::vector<Index> parentPosition;  ///< per entry of `order`: its parent's index there (-1: a root)
 };
 SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& roots);
@@ -108,22 +105,21 @@ SpanningTree spanningTree(const Lattice& lat, const std::vector<unsigned char>& 
 /// every point gets the value carried from its tree parent (frames: F(q) = F(p) exp(S_pq);
 /// positions: x(q) = x(p) + D_pq from the frames at both ends). Points of components without a
 /// pin keep their values.
-void integrateFramesAlongTree(const Lattice& lat, const EdgeTransports& e,
-                              const std::vector<Pin>& pins, std::vector<Mat3>& frames);
-void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e,
-                                 const std::vector<Mat3>& frames, const std::vector<Pin>& pins,
-                                 std::vector<Vec3>& positions);
+void integrateFramesAlongTree(const Lattice& lat, const EdgeTransports& e, const std::vector<Pin>& pins,
+                              std::vector<Mat3>& frames);
+void integratePositionsAlongTree(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                                 const std::vector<Pin>& pins, std::vector<Vec3>& positions);
 
 /// Work arrays of connectionChangeSteps, kept between calls (no page faults on large lattices).
 struct ConnectionChangeWorkspace {
     std::array<std::vector<Vec3>, 3> from0, to0, from1, to1;  ///< step vectors per edge (EdgeTransports)
-    std::vector<Mat3> tree0, tree1;      ///< #P: frame transport of the tree edge into each point
+    std::vector<Mat3> tree0, tree1;                           ///< #P: frame transport of the tree edge into each point
     std::vector<Mat3> ordered0, ordered1;  ///< the tree edges' transports, then the frames, in the tree's order
-    std::vector<Mat3> frames0, frames1;  ///< #P: the frames of each connection
+    std::vector<Mat3> frames0, frames1;    ///< #P: the frames of each connection
     std::array<std::vector<Mat3>, 3> up0, down0, up1, down1;  ///< every edge p -> p + e_b, on p: exp(±S)
     std::array<std::vector<unsigned char>, 3> steep;  ///< every edge, on p: 1 where |S|_1 is past the sweeps' bound
     double edgeSeconds = 0, treeSeconds = 0, sweepSeconds = 0;  ///< the last call's stages (seconds)
-    std::array<std::vector<Index>, 2> swept;  ///< the points the sweeps update, per colour
+    std::array<std::vector<Index>, 2> swept;                    ///< the points the sweeps update, per colour
 };
 
 /// The edge steps a connection change asks for (the dynamics' reconstruction, dynamics/stepper):
@@ -138,8 +134,7 @@ struct ConnectionChangeWorkspace {
 /// hold 720 bytes a point, and with sweeps 1.6 kB (every edge's transports both ways).
 /// @param frames   #P frames; those at the tree's roots start both integrations
 /// @param forward  out: 3 x #P
-void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree,
-                           const std::array<std::vector<Mat3>, 3>& gamma0,
+void connectionChangeSteps(const Lattice& lat, const SpanningTree& tree, const std::array<std::vector<Mat3>, 3>& gamma0,
                            const std::array<std::vector<Mat3>, 3>& gamma1, const std::vector<Mat3>& frames,
                            ConnectionChangeWorkspace& work, std::array<std::vector<Vec3>, 3>& forward,
                            int frameSweeps = 0);

@@ -24,11 +24,11 @@ struct PoissonSolver::Impl {
     std::unique_ptr<AggregationMultigrid> mg;
     bool ok = false;
     double seconds = 0;
-    std::vector<Index> treeOrder;         ///< BFS order from the fixed points, by layer
-    std::vector<Index> treeParent;        ///< #P parent in the tree (kNoPoint for roots)
-    std::vector<signed char> treeSlot;    ///< #P slot of the edge parent -> point
-    std::vector<Index> layerStart;        ///< offsets of the BFS layers in treeOrder
-    mutable CgWorkspace work;             ///< reused by every solve (not reentrant)
+    std::vector<Index> treeOrder;       ///< BFS order from the fixed points, by layer
+    std::vector<Index> treeParent;      ///< #P parent in the tree (kNoPoint for roots)
+    std::vector<signed char> treeSlot;  ///< #P slot of the edge parent -> point
+    std::vector<Index> layerStart;      ///< offsets of the BFS layers in treeOrder
+    mutable CgWorkspace work;           ///< reused by every solve (not reentrant)
     mutable std::vector<Real> b, x, scale2;
     mutable std::array<std::vector<Vec3>, 3> forward;  ///< solve()'s edge steps, reused
 };
@@ -145,21 +145,23 @@ void pathFromSteps(const PoissonSolver::Impl& m, const std::array<std::vector<Ve
                    std::vector<Vec3>& positions) {
     for (std::size_t l = 1; l + 1 < m.layerStart.size(); ++l) {
         const Index begin = m.layerStart[l], count = m.layerStart[l + 1] - begin;
-        parallelFor(count, [&](Index i) {
-            const Index q = m.treeOrder[at(begin + i)];
-            const Index p = m.treeParent[at(q)];
-            const int slot = m.treeSlot[at(q)];
-            const std::size_t axis = std::size_t(slot / 2);
-            positions[at(q)] = (slot & 1) ? Vec3(positions[at(p)] + forward[axis][at(p)])
-                                          : Vec3(positions[at(p)] + -forward[axis][at(q)]);
-        }, 512);
+        parallelFor(
+            count,
+            [&](Index i) {
+                const Index q = m.treeOrder[at(begin + i)];
+                const Index p = m.treeParent[at(q)];
+                const int slot = m.treeSlot[at(q)];
+                const std::size_t axis = std::size_t(slot / 2);
+                positions[at(q)] = (slot & 1) ? Vec3(positions[at(p)] + forward[axis][at(p)])
+                                              : Vec3(positions[at(p)] + -forward[axis][at(q)]);
+            },
+            512);
     }
 }
 
 }  // namespace
 
-void PoissonSolver::pathPositions(const Lattice& lat, const EdgeTransports& e,
-                                  const std::vector<Mat3>& frames,
+void PoissonSolver::pathPositions(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
                                   std::vector<Vec3>& positions) const {
     const Impl& m = *mImpl;
     DGV_CHECK_EQ(lat.size(), m.points);
@@ -174,9 +176,8 @@ namespace {
 /// The least-squares solve of PoissonSolver::solve / solveSteps with the edge step
 /// x(q) - x(p) = step(p, slot) given as a function.
 template <typename Step>
-SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&& step,
-                         std::vector<Vec3>& positions, Real tolerance, int maxIterations,
-                         const std::vector<Vec3>* load = nullptr) {
+SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&& step, std::vector<Vec3>& positions,
+                         Real tolerance, int maxIterations, const std::vector<Vec3>* load = nullptr) {
     const auto start = std::chrono::steady_clock::now();
     SolveReport report;
     const Index n = static_cast<Index>(m.freePoints.size());
@@ -218,11 +219,9 @@ SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&
         }
     });
     const Real scale = std::sqrt(parallelReduce(
-        n, Real(0), [&](Real& acc, Index r) { acc += scale2[at(r)]; },
-        [](Real a, Real c) { return a + c; }));
+        n, Real(0), [&](Real& acc, Index r) { acc += scale2[at(r)]; }, [](Real a, Real c) { return a + c; }));
     // the multigrid's own copy of L: conjugateGradients then uses its row products (unit rows)
-    report = conjugateGradients(m.mg->matrix(), m.mg.get(), b, x, kCols, tolerance, scale, maxIterations,
-                                &m.work);
+    report = conjugateGradients(m.mg->matrix(), m.mg.get(), b, x, kCols, tolerance, scale, maxIterations, &m.work);
     parallelFor(n, [&](Index r) {
         positions[at(m.freePoints[at(r)])] = Vec3(x[at(r) * kCols], x[at(r) * kCols + 1], x[at(r) * kCols + 2]);
     });
@@ -232,9 +231,8 @@ SolveReport solvePoisson(const PoissonSolver::Impl& m, const Lattice& lat, Step&
 
 }  // namespace
 
-SolveReport PoissonSolver::solve(const Lattice& lat, const EdgeTransports& e,
-                                 const std::vector<Mat3>& frames, std::vector<Vec3>& positions,
-                                 Real tolerance, int maxIterations, bool fromPath) const {
+SolveReport PoissonSolver::solve(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
+                                 std::vector<Vec3>& positions, Real tolerance, int maxIterations, bool fromPath) const {
     DGV_CHECK_EQ(lat.size(), mImpl->points);
     DGV_CHECK_EQ(static_cast<Index>(frames.size()), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
@@ -260,8 +258,8 @@ SolveReport PoissonSolver::solveSteps(const Lattice& lat, const std::array<std::
         positions, tolerance, maxIterations);
 }
 
-SolveReport PoissonSolver::solveLoad(const Lattice& lat, const std::vector<Vec3>& load,
-                                     std::vector<Vec3>& positions, Real tolerance, int maxIterations) const {
+SolveReport PoissonSolver::solveLoad(const Lattice& lat, const std::vector<Vec3>& load, std::vector<Vec3>& positions,
+                                     Real tolerance, int maxIterations) const {
     DGV_CHECK_EQ(lat.size(), mImpl->points);
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), lat.size());
     DGV_CHECK_EQ(static_cast<Index>(load.size()), lat.size());

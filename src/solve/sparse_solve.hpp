@@ -38,7 +38,7 @@ public:
     bool ok() const;
     double setupSeconds() const;  ///< wall-clock time of building L and the hierarchy
     Index freeCount() const;
-    int levels() const;           ///< multigrid levels (1 = direct solve only)
+    int levels() const;  ///< multigrid levels (1 = direct solve only)
     /// Whether this solver was made for a lattice of this size and this fixed mask.
     bool matches(const Lattice& lat, const std::vector<unsigned char>& fixed) const;
 
@@ -49,16 +49,15 @@ public:
     /// fromPath: start from pathPositions() instead (the fixed points must hold their values),
     /// sharing the edge steps with it; the same result as pathPositions() then solve().
     SolveReport solve(const Lattice& lat, const EdgeTransports& e, const std::vector<Mat3>& frames,
-                      std::vector<Vec3>& positions, Real tolerance = Real(1e-8),
-                      int maxIterations = 200, bool fromPath = false) const;
+                      std::vector<Vec3>& positions, Real tolerance = Real(1e-8), int maxIterations = 200,
+                      bool fromPath = false) const;
 
     /// The same least-squares solve with the edge steps given directly: forward[a][p] is the
     /// step x(p + e_a) - x(p) along axis a from point p (entries of points without a +a
     /// neighbour are ignored). The dynamics solves for a displacement this way, from the
     /// difference of the steps of two connections (dynamics/stepper.hpp).
     SolveReport solveSteps(const Lattice& lat, const std::array<std::vector<Vec3>, 3>& forward,
-                           std::vector<Vec3>& positions, Real tolerance = Real(1e-8),
-                           int maxIterations = 200) const;
+                           std::vector<Vec3>& positions, Real tolerance = Real(1e-8), int maxIterations = 200) const;
 
     /// L x = f on the free points, the fixed points holding the values in `positions`: the
     /// lattice's discrete Poisson problem with the load f (#P, one vector per point; entries of

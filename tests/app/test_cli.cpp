@@ -43,7 +43,8 @@ fs::path writeSmallScene(const fs::path& dir, const std::string& extra = "") {
     std::ofstream(scene) << R"({
   "frames": {"start": 1, "end": 2},
   "objects": [{"primitive": {"type": "sphere", "radius": 0.5}, "resolution": 12, "color": [0.8, 0.3, 0.2]}],
-  "render": {"width": 64, "height": 48, "supersample": 1})" << extra << "}\n";
+  "render": {"width": 64, "height": 48, "supersample": 1})"
+                         << extra << "}\n";
     return scene;
 }
 
@@ -81,8 +82,9 @@ TEST_CASE("cli: a mistyped command is named with the nearest one", "[app][cli]")
     CHECK(r.output == "dgv: error: unknown command 'ifno' (did you mean 'info'?)\n");
     r = test::runDgv("frobnicate");
     CHECK(r.exitCode == 2);
-    CHECK(r.output == "dgv: error: unknown command 'frobnicate' (commands: render, simulate, gln, imgdiff, info, "
-                      "bench, farm; see dgv --help)\n");
+    CHECK(r.output ==
+          "dgv: error: unknown command 'frobnicate' (commands: render, simulate, gln, imgdiff, info, "
+          "bench, farm; see dgv --help)\n");
     // An extra argument after a known command keeps CLI11's message.
     r = test::runDgv("info a.obj b.obj");
     CHECK(r.exitCode == 2);
@@ -120,15 +122,17 @@ TEST_CASE("cli: global options are taken before or after the subcommand", "[app]
 TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cache", "[app][cli][dynamics]") {
     test::TempDir dir("cli_simulate");
     const std::string scene = std::string(DGV_SOURCE_DIR) + "/scenes/twisted_column.json";
-    auto r = test::runDgv("-q simulate " + q(std::filesystem::path(scene)) + " --frames 4 --vdb --out " + q(dir.path()));
+    auto r =
+        test::runDgv("-q simulate " + q(std::filesystem::path(scene)) + " --frames 4 --vdb --out " + q(dir.path()));
     INFO(r.output);
     REQUIRE(r.exitCode == 0);
     std::ifstream f(dir.path() / "stats.csv");
     std::string line;
     REQUIRE(std::getline(f, line));
-    CHECK(line == "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
-                  "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps,"
-                  "flipped_triangles,torn_edges,surface_stretch,reparametrisations");
+    CHECK(line ==
+          "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
+          "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps,"
+          "flipped_triangles,torn_edges,surface_stretch,reparametrisations");
     int rows = 0;
     while (std::getline(f, line)) {
         ++rows;
@@ -136,10 +140,10 @@ TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cach
         std::stringstream ss(line);
         for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
         REQUIRE(v.size() == 18);
-        CHECK(v[0] == rows);           // frames 1..4
-        CHECK(v[4] <= 1e-4);           // max_cell_volume_error
-        CHECK(std::abs(v[5]) <= 1e-6); // total_volume_drift
-        CHECK(v[6] == 0);              // no inverted cell
+        CHECK(v[0] == rows);                  // frames 1..4
+        CHECK(v[4] <= 1e-4);                  // max_cell_volume_error
+        CHECK(std::abs(v[5]) <= 1e-6);        // total_volume_drift
+        CHECK(v[6] == 0);                     // no inverted cell
         CHECK(v[13] == (rows == 1 ? 0 : 2));  // substeps: the scene's 2 (the first frame is not simulated)
         CHECK(v[14] == 0);                    // flipped_triangles
         CHECK(v[15] == 0);                    // torn_edges
@@ -164,8 +168,10 @@ TEST_CASE("cli: gln prints the certified linking number, or why not", "[app][cli
         for (int k = 0; k < 64; ++k) {
             const double phi = 2 * M_PI * k / 64;
             const double cs = k == 32 ? -1 : k == 0 ? 1 : std::cos(phi), sn = k == 32 || k == 0 ? 0 : std::sin(phi);
-            if (xz) f << c + cs << " 0 " << sn << "\n";
-            else f << cs << " " << sn << " 0\n";
+            if (xz)
+                f << c + cs << " 0 " << sn << "\n";
+            else
+                f << cs << " " << sn << " 0\n";
         }
     };
     ring("a.txt", 0, false);
@@ -215,7 +221,8 @@ TEST_CASE("cli: bad scenes give one line naming file and path, exit 2, and write
     };
     std::vector<Case> cases = {
         {"{\"objects\": [", "malformed JSON"},
-        {R"({"objects": [{"primitive": {"type": "sphere"}, "voxel_size": 0}]})", "objects[0].voxel_size: expected a positive number"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}, "voxel_size": 0}]})",
+         "objects[0].voxel_size: expected a positive number"},
         {R"({"objects": [{"mesh": "missing.obj"}]})", "objects[0].mesh:"},
         {R"({"objects": [{"primitive": {"type": "sphere"}, "voxel_size": 1e-6}]})", "objects[0].voxel_size"},
     };
@@ -274,8 +281,10 @@ TEST_CASE("cli: render with a keyframed camera, --resolution and --gl-backend", 
     const std::string png = readBytes(out / "small.0001.png");
     REQUIRE(png.size() > 24);
     auto be32 = [&](std::size_t at) {
-        return (unsigned(static_cast<unsigned char>(png[at])) << 24) | (unsigned(static_cast<unsigned char>(png[at + 1])) << 16) |
-               (unsigned(static_cast<unsigned char>(png[at + 2])) << 8) | unsigned(static_cast<unsigned char>(png[at + 3]));
+        return (unsigned(static_cast<unsigned char>(png[at])) << 24) |
+               (unsigned(static_cast<unsigned char>(png[at + 1])) << 16) |
+               (unsigned(static_cast<unsigned char>(png[at + 2])) << 8) |
+               unsigned(static_cast<unsigned char>(png[at + 3]));
     };
     CHECK(be32(16) == 80u);  // IHDR width, height
     CHECK(be32(20) == 40u);
@@ -285,7 +294,10 @@ TEST_CASE("cli: render with a keyframed camera, --resolution and --gl-backend", 
     const std::string sheet = readBytes(out / "small.contact.png");
     REQUIRE(sheet.size() > 24);
     CHECK(filesIn(out) == std::vector<std::string>{"small.0001.png", "small.0002.png", "small.contact.png"});
-    auto sheet32 = [&](std::size_t at) { return (unsigned(static_cast<unsigned char>(sheet[at + 2])) << 8) | unsigned(static_cast<unsigned char>(sheet[at + 3])); };
+    auto sheet32 = [&](std::size_t at) {
+        return (unsigned(static_cast<unsigned char>(sheet[at + 2])) << 8) |
+               unsigned(static_cast<unsigned char>(sheet[at + 3]));
+    };
     CHECK(sheet32(16) == 2 * 80u + 3 * 4u);
     CHECK(sheet32(20) == 40u + 2 * 4u);
     // Each thumbnail carries its frame number at its lower left: a dark box 10 x 14 pixels at
@@ -304,9 +316,9 @@ TEST_CASE("cli: render with a keyframed camera, --resolution and --gl-backend", 
     };
     // "1" is .#. / ##. / .#. / .#. / ### at twice the size, 2 pixels in from the box's corner.
     const std::string one = box(0), two = box(1);
-    CHECK(one.substr(2 * 10, 10) == "....##....");  // the digit's top row, twice
+    CHECK(one.substr(2 * 10, 10) == "....##....");   // the digit's top row, twice
     CHECK(one.substr(11 * 10, 10) == "..######..");  // its foot
-    CHECK(two.substr(2 * 10, 10) == "..######..");  // "2" starts with a full bar
+    CHECK(two.substr(2 * 10, 10) == "..######..");   // "2" starts with a full bar
     CHECK(one != two);
     // --movie needs ffmpeg: without it, a clear one-line error before anything is rendered
     if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) {
@@ -357,19 +369,20 @@ TEST_CASE("cli: info describes a mesh and its voxelisation", "[app][cli]") {
 TEST_CASE("cli: an FBX mesh in centimetres comes in metres and one line says so", "[app][cli][render]") {
     const fs::path spider = "/usr/share/assimp/models/FBX/spider.fbx";  // package assimp-testmodels
     REQUIRE(fs::exists(spider));
-    const std::string line = "dgv: " + spider.string() +
-                             ": the file's unit is 0.01 m (FBX UnitScaleFactor 1); scaled by 0.01 to metres\n";
+    const std::string line =
+        "dgv: " + spider.string() + ": the file's unit is 0.01 m (FBX UnitScaleFactor 1); scaled by 0.01 to metres\n";
     auto info = test::runDgv("info " + q(spider) + " --resolution 8");
     INFO(info.output);
     REQUIRE(info.exitCode == 0);
-    CHECK_THAT(info.output, Catch::StartsWith(line) && Catch::Contains("unit_scale: 0.01\n") &&
-                                Catch::Contains("size: 150.59"));
+    CHECK_THAT(info.output,
+               Catch::StartsWith(line) && Catch::Contains("unit_scale: 0.01\n") && Catch::Contains("size: 150.59"));
     // In a scene the object's transform comes after the unit; the pin group's second import of
     // the file says nothing.
     test::TempDir dir("cli_fbx_units");
     const fs::path scene = dir.path() / "spider.json";
     std::ofstream(scene) << R"({"frames": {"start": 1, "end": 1},
-  "objects": [{"mesh": ")" << spider.string() << R"(", "transform": {"scale": 0.01}, "resolution": 8,
+  "objects": [{"mesh": ")"
+                         << spider.string() << R"(", "transform": {"scale": 0.01}, "resolution": 8,
                "pin": {"group": "Kopf"}}],
   "render": {"width": 64, "height": 48, "supersample": 1}})";
     auto r = test::runDgv("render " + q(scene) + " --out " + q(dir.path() / "out") + " --progress log");
@@ -393,11 +406,12 @@ TEST_CASE("cli: imgdiff passes identical images and fails different ones", "[app
   "objects": [{"primitive": {"type": "sphere", "radius": 0.5}, "resolution": 12, "color": [0.2, 0.3, 0.8]}],
   "render": {"width": 64, "height": 48, "supersample": 1}})";
     REQUIRE(test::runDgv("-q render " + q(scene2) + " --out " + q(dir.path() / "b")).exitCode == 0);
-    auto same = test::runDgv("imgdiff " + q(dir.path() / "a/small.0001.png") + " " + q(dir.path() / "a/small.0001.png"));
+    auto same =
+        test::runDgv("imgdiff " + q(dir.path() / "a/small.0001.png") + " " + q(dir.path() / "a/small.0001.png"));
     CHECK(same.exitCode == 0);
     CHECK(same.output == "PASS: 0 pixels differ; mean error 0.0000, max error 0.000 at (0, 0) channel R\n");
-    auto diff = test::runDgv("imgdiff " + q(dir.path() / "a/small.0001.png") + " " + q(dir.path() / "b/small.0001.png") +
-                             " --diff-out " + q(dir.path() / "d"));
+    auto diff = test::runDgv("imgdiff " + q(dir.path() / "a/small.0001.png") + " " +
+                             q(dir.path() / "b/small.0001.png") + " --diff-out " + q(dir.path() / "d"));
     CHECK(diff.exitCode == 1);
     CHECK_THAT(diff.output, Catch::StartsWith("FAIL: ") && !Catch::Contains("FAIL: FAIL"));
     CHECK(fs::exists(dir.path() / "d" / "small.0001.diff.png"));

@@ -21,10 +21,16 @@ double sumWith(std::size_t threads, Index n) {
 TEST_CASE("parallel: parallelFor visits every index exactly once", "[base]") {
     const Index n = 100003;
     std::vector<int> hits(static_cast<std::size_t>(n), 0);
-    parallelFor(n, [&](Index i) { hits[static_cast<std::size_t>(i)] += 1; }, 64);
+    parallelFor(
+        n, [&](Index i) { hits[static_cast<std::size_t>(i)] += 1; }, 64);
     for (int h : hits) REQUIRE(h == 1);
     std::vector<int> blocks(static_cast<std::size_t>(n), 0);
-    parallelForBlocks(n, [&](Index b, Index e) { for (Index i = b; i < e; ++i) blocks[static_cast<std::size_t>(i)]++; }, 100);
+    parallelForBlocks(
+        n,
+        [&](Index b, Index e) {
+            for (Index i = b; i < e; ++i) blocks[static_cast<std::size_t>(i)]++;
+        },
+        100);
     for (int h : blocks) REQUIRE(h == 1);
 }
 
@@ -46,8 +52,10 @@ TEST_CASE("parallel: empty and tiny ranges", "[base]") {
     int calls = 0;
     parallelFor(0, [&](Index) { ++calls; });
     CHECK(calls == 0);
-    CHECK(parallelReduce<int>(0, 7, [](int& a, Index) { ++a; }, [](int a, int b) { return a + b; }) == 7);
-    CHECK(parallelReduce<int>(5, 0, [](int& a, Index) { ++a; }, [](int a, int b) { return a + b; }) == 5);
+    CHECK(parallelReduce<int>(
+              0, 7, [](int& a, Index) { ++a; }, [](int a, int b) { return a + b; }) == 7);
+    CHECK(parallelReduce<int>(
+              5, 0, [](int& a, Index) { ++a; }, [](int a, int b) { return a + b; }) == 5);
 }
 
 TEST_CASE("progress: durations format as M:SS and H:MM:SS", "[base]") {

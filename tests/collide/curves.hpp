@@ -53,7 +53,8 @@ inline ClosedCurve fourierCurve(unsigned seed, int modes, int n, const Vec3& off
         const Real t = 2 * M_PI * i / n;
         Vec3 p = offset;
         for (int m = 0; m < modes; ++m)
-            p += a[static_cast<std::size_t>(m)] * std::cos((m + 1) * t) + b[static_cast<std::size_t>(m)] * std::sin((m + 1) * t);
+            p += a[static_cast<std::size_t>(m)] * std::cos((m + 1) * t) +
+                 b[static_cast<std::size_t>(m)] * std::sin((m + 1) * t);
         c.push_back(p);
     }
     return c;
@@ -71,8 +72,8 @@ inline ClosedCurve whiteheadLoop(int n) {
 /// ... and a loop rising through both lobes of it (in opposite senses relative to the lobes, so
 /// lk = 0) and returning outside it: linked, with linking number 0.
 inline ClosedCurve whiteheadClasp() {
-    return {{1.2, 0, -1}, {1.2, 0, 1.5}, {-3, 0, 1.5}, {-3, 0, -1}, {-1.2, 0, -1}, {-1.2, 0, 1},
-            {-1.2, 2, 1}, {3, 2, 1},     {3, 2, -1}};
+    return {{1.2, 0, -1}, {1.2, 0, 1.5}, {-3, 0, 1.5}, {-3, 0, -1}, {-1.2, 0, -1},
+            {-1.2, 0, 1}, {-1.2, 2, 1},  {3, 2, 1},    {3, 2, -1}};
 }
 
 /// Banchoff's count along view direction `u` (unit, generic).

@@ -27,8 +27,7 @@ namespace {
 /// triangles run counter-clockwise seen from outside.
 Real enclosedVolume(const TriangleMesh& m) {
     Real v = 0;
-    for (const auto& t : m.triangles)
-        v += m.vertices[t[0]].dot(m.vertices[t[1]].cross(m.vertices[t[2]])) / 6;
+    for (const auto& t : m.triangles) v += m.vertices[t[0]].dot(m.vertices[t[1]].cross(m.vertices[t[2]])) / 6;
     return v;
 }
 
@@ -69,7 +68,8 @@ namespace {
 /// Two jelly balls (0.3 m, 16 voxels across) 1 m apart, thrown at each other at 1.2 m/s each,
 /// no gravity; `collision` is the scene's collision object.
 void writeBlobs(const std::filesystem::path& dir, const std::string& collision) {
-    std::ofstream(dir / "blobs.json") << R"({ "name": "blobs", "frames": { "start": 1, "end": 24, "fps": 24 }, "substeps": 4,
+    std::ofstream(dir / "blobs.json")
+        << R"({ "name": "blobs", "frames": { "start": 1, "end": 24, "fps": 24 }, "substeps": 4,
   "objects": [
     { "name": "left", "primitive": { "type": "sphere", "radius": 0.3 }, "resolution": 16,
       "transform": { "translate": [-0.5, 0.4, 0] }, "material": { "damping": 2, "stiffness": 100 },
@@ -77,7 +77,8 @@ void writeBlobs(const std::filesystem::path& dir, const std::string& collision) 
     { "name": "right", "primitive": { "type": "sphere", "radius": 0.3 }, "resolution": 16,
       "transform": { "translate": [0.5, 0.45, 0] }, "material": { "damping": 2, "stiffness": 100 },
       "velocity": [-1.2, 0, 0] } ],
-  "collision": )" << collision << R"( })";
+  "collision": )"
+        << collision << R"( })";
 }
 
 }  // namespace
@@ -104,7 +105,8 @@ TEST_CASE("body contact: two jelly balls thrown at each other squash, bounce apa
         Real lowest = ke0, maxPen = 0, maxErr = 0, maxDrift = 0;
         int lowestFrame = 0, contactFrames = 0;
         for (const auto& row : rows) {
-            if (row.at("kinetic_energy") < lowest) lowest = row.at("kinetic_energy"), lowestFrame = int(row.at("frame"));
+            if (row.at("kinetic_energy") < lowest)
+                lowest = row.at("kinetic_energy"), lowestFrame = int(row.at("frame"));
             maxPen = std::max(maxPen, row.at("max_penetration"));
             maxErr = std::max(maxErr, row.at("max_cell_volume_error"));
             maxDrift = std::max(maxDrift, std::abs(row.at("total_volume_drift")));
@@ -126,7 +128,8 @@ TEST_CASE("body contact: two jelly balls thrown at each other squash, bounce apa
     }
 }
 
-TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over its momentum", "[collide][body][sim][slow]") {
+TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over its momentum",
+          "[collide][body][sim][slow]") {
     // A 4-voxel ball at 1.5 m/s into a resting 7-voxel ball (6.3 times its mass), no forces.
     // The two meet where both are going (predicted positions), each pushes its own points out
     // of the other, and the pair's momentum is then put right as a whole (one velocity shift):
@@ -141,15 +144,16 @@ TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over i
     const Lattice small = test::sphereLattice(4, h, Vec3(-0.4, 0, 0) - Vec3::Constant(4 * h));
     const Lattice heavy = test::sphereLattice(7, h, Vec3(0, 0.03, 0) - Vec3::Constant(7 * h));
     for (const auto& [e, ground] : {std::pair<Real, bool>{0.0, false}, {0.6, false}, {0.0, true}}) {
-        const SceneDesc scene = parseScene(R"({"frames": {"start": 1, "end": 24, "fps": 24}, "substeps": 4,
+        const SceneDesc scene = parseScene(
+            R"({"frames": {"start": 1, "end": 24, "fps": 24}, "substeps": 4,
             "objects": [
               {"name": "small", "primitive": {"type": "sphere", "radius": 0.1}, "velocity": [1.5, 0, 0],
                "material": {"damping": 2, "stiffness": 100}},
               {"name": "heavy", "primitive": {"type": "sphere", "radius": 0.175},
                "material": {"damping": 2, "stiffness": 100}}],
-            "collision": {"restitution": )" + std::to_string(e) + "}" +
-                                               (ground ? R"(, "colliders": [{"type": "ground", "height": -5}])" : "") + "}",
-                                           dir.path() / "s.json");
+            "collision": {"restitution": )" +
+                std::to_string(e) + "}" + (ground ? R"(, "colliders": [{"type": "ground", "height": -5}])" : "") + "}",
+            dir.path() / "s.json");
         Simulation sim(scene, {&small, &heavy});
         sim.setSurfaceDistance([](const TriangleMesh& mesh, Real voxel, int band) {
             return meshLevelSet(mesh, voxel, band, "an object's deformed surface");
@@ -176,9 +180,9 @@ TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over i
         }
         const Vec3 pa = pointMomentum(a), pb = pointMomentum(b);
         const Real inelastic = p0 * mb / (ma + mb);
-        INFO("e " << e << (ground ? ", ground below" : "") << ": momentum " << p0 << " -> small " << pa.x() << " + heavy " << pb.x() << " (inelastic "
-                  << inelastic << "), worst centre error " << worst << ", max penetration " << maxPen
-                  << " voxels, " << contactFrames << " frames in contact");
+        INFO("e " << e << (ground ? ", ground below" : "") << ": momentum " << p0 << " -> small " << pa.x()
+                  << " + heavy " << pb.x() << " (inelastic " << inelastic << "), worst centre error " << worst
+                  << ", max penetration " << maxPen << " voxels, " << contactFrames << " frames in contact");
         CHECK(worst < 1e-9 * p0);
         // After the contact the points' momentum agrees too, to what the volume projection's
         // small shifts of the points leave (measured 4e-6 of it).
@@ -191,8 +195,10 @@ TEST_CASE("body contact: a small ball thrown at a resting heavy one hands over i
     }
 }
 
-TEST_CASE("body contact: a jelly dropped off-centre onto a resting one bounces off and rolls away, the struck one rolls off the other way",
-          "[collide][body][sim][slow]") {
+TEST_CASE(
+    "body contact: a jelly dropped off-centre onto a resting one bounces off and rolls away, the struck one rolls off "
+    "the other way",
+    "[collide][body][sim][slow]") {
     // A 0.25 m ball dropped from 1.1 m onto a 0.3 m one resting on the ground, 8 cm off its axis
     // (k = 3000/s², damping 2/s, friction 0.5; docs/math.md, "Friction acts on the patch's
     // slip"). With the friction on the centre instead of the contact patch's slip the upper ball
@@ -238,7 +244,7 @@ TEST_CASE("body contact: a jelly dropped off-centre onto a resting one bounces o
                      << vb.transpose() << ", max cell error " << maxErr << ", max penetration " << maxPen << " voxels");
     CHECK(inverted == 0);
     CHECK(maxErr <= 1e-4);
-    CHECK(b.x() - a.x() > 0.55 + 0.5);  // apart on the ground, not stacked: measured 2.2 m
+    CHECK(b.x() - a.x() > 0.55 + 0.5);   // apart on the ground, not stacked: measured 2.2 m
     CHECK(vb.x() > 0.3);                 // rolling on, away: measured 1.2 m/s
     CHECK(std::abs(a.y() - 0.3) < 0.1);  // both on the ground (sagging a little)
     CHECK(std::abs(b.y() - 0.25) < 0.1);
@@ -253,11 +259,11 @@ TEST_CASE("body contact: a jelly dropped off-centre onto a resting one bounces o
     const Real slipA = va.x() + spinA * aAtFastest.y();
     INFO("lower ball: fastest at " << va.x() << " m/s, spin " << spinA << " rad/s, slip " << slipA << " m/s");
     if (std::getenv("DGV_TEST_VERBOSE"))
-        std::printf("struck ball: %.3f m off at frame 48, fastest %.3f m/s (spin %.3f rad/s, slip %.2e m/s)\n", a.x(), va.x(),
-                    spinA, slipA);
+        std::printf("struck ball: %.3f m off at frame 48, fastest %.3f m/s (spin %.3f rad/s, slip %.2e m/s)\n", a.x(),
+                    va.x(), spinA, slipA);
     CHECK(a.x() < -0.1);
     CHECK(va.x() < -0.1);
     CHECK(std::abs(va.z()) < 0.2 * std::abs(va.x()));  // along the blow
-    CHECK(std::abs(slipA) < 0.1 * std::abs(va.x()));    // rolling, not sliding
+    CHECK(std::abs(slipA) < 0.1 * std::abs(va.x()));   // rolling, not sliding
     CHECK(maxPen < 0.5);
 }

@@ -17,8 +17,8 @@ TEST_CASE("curve distance: segment pairs against dense sampling", "[collide][gln
     for (int trial = 0; trial < 200; ++trial) {
         const Vec3 p0(d(rng), d(rng), d(rng)), q0(d(rng), d(rng), d(rng));
         Vec3 p1(d(rng), d(rng), d(rng)), q1(d(rng), d(rng), d(rng));
-        if (trial % 10 == 1) p1 = p0;                        // a point
-        if (trial % 10 == 2) q1 = q0 + 0.7 * (p1 - p0);      // parallel
+        if (trial % 10 == 1) p1 = p0;                    // a point
+        if (trial % 10 == 2) q1 = q0 + 0.7 * (p1 - p0);  // parallel
         const Real dist = segmentDistance(p0, p1, q0, q1);
         Real sampled = HUGE_VAL;
         for (int i = 0; i <= N; ++i)

@@ -54,7 +54,8 @@ TEST_CASE("gln exact: AVX2 and scalar kernels give bit-identical sums", "[collid
     if (!glnAvx2Available()) return;
     const ClosedCurve a = test::fourierCurve(1, 6, 301), b = test::fourierCurve(2, 6, 517, Vec3(0.3, 0, 0));
     const CurveSoA sa = toSoA(a), sb = toSoA(b);
-    for (auto [i0, i1, j0, j1] : std::vector<std::array<Index, 4>>{{0, 301, 0, 517}, {3, 40, 5, 6}, {7, 8, 1, 514}, {100, 300, 200, 517}}) {
+    for (auto [i0, i1, j0, j1] :
+         std::vector<std::array<Index, 4>>{{0, 301, 0, 517}, {3, 40, 5, 6}, {7, 8, 1, 514}, {100, 300, 200, 517}}) {
         const GlnSum s = glnTile(sa, i0, i1, sb, j0, j1, GlnKernel::Scalar);
         const GlnSum v = glnTile(sa, i0, i1, sb, j0, j1, GlnKernel::Avx2);
         CHECK(s.halfAngle == v.halfAngle);
@@ -106,7 +107,8 @@ TEST_CASE("gln exact: the Whitehead link has lk 0 although linked", "[collide]")
 
 TEST_CASE("gln exact: (2,2k) torus links have lk = k", "[collide]") {
     for (int k : {1, 2, 3, 5, 8}) {
-        const ClosedCurve a = test::torusCurve(2, 0.7, k, 0, 64 * k + 31), b = test::torusCurve(2, 0.7, k, M_PI, 64 * k + 17);
+        const ClosedCurve a = test::torusCurve(2, 0.7, k, 0, 64 * k + 31),
+                          b = test::torusCurve(2, 0.7, k, M_PI, 64 * k + 17);
         const GlnResult r = direct(a, b);
         INFO("k = " << k << ", raw " << r.raw);
         REQUIRE(r.status == GlnStatus::Certified);

@@ -33,11 +33,14 @@ TEST_CASE("gln farfield: node moments and radii describe their segments", "[coll
         Vec3 m0 = Vec3::Zero();
         Real len = 0;
         for (Index i = n.begin; i <= n.end; ++i) {
-            const Vec3 p(s.x[static_cast<std::size_t>(i)], s.y[static_cast<std::size_t>(i)], s.z[static_cast<std::size_t>(i)]);
+            const Vec3 p(s.x[static_cast<std::size_t>(i)], s.y[static_cast<std::size_t>(i)],
+                         s.z[static_cast<std::size_t>(i)]);
             // Every vertex of the node, so every point of its segments, lies within the radius.
             REQUIRE((p - n.centre).norm() <= n.radius * (1 + 1e-14));
             if (i < n.end) {
-                m0 += Vec3(s.x[static_cast<std::size_t>(i + 1)], s.y[static_cast<std::size_t>(i + 1)], s.z[static_cast<std::size_t>(i + 1)]) - p;
+                m0 += Vec3(s.x[static_cast<std::size_t>(i + 1)], s.y[static_cast<std::size_t>(i + 1)],
+                           s.z[static_cast<std::size_t>(i + 1)]) -
+                      p;
                 len += s.len[static_cast<std::size_t>(i)];
             }
         }
@@ -62,7 +65,8 @@ TEST_CASE("gln farfield: the multipole of a node pair is within its bound of the
                 if (!(q < 0.9)) continue;
                 const FarValue f = farFieldPair(A, B);
                 const Real exact = exactPair(sa, A, sb, B);
-                INFO("shift " << shift << " q " << q << " far " << f.value << " exact " << exact << " bound " << f.bound);
+                INFO("shift " << shift << " q " << q << " far " << f.value << " exact " << exact << " bound "
+                              << f.bound);
                 REQUIRE(std::abs(f.value - exact) <= f.bound);
                 ++checked;
             }
@@ -126,7 +130,8 @@ TEST_CASE("gln farfield: certified integers of big links agree with the direct s
     CHECK(r.linking == test::banchoff(a, b, Vec3(0.37, 0.61, -0.7).normalized()));
 }
 
-TEST_CASE("gln farfield: the adaptive refinement certifies the direct sum's integer with fewer exact pairs", "[collide][gln]") {
+TEST_CASE("gln farfield: the adaptive refinement certifies the direct sum's integer with fewer exact pairs",
+          "[collide][gln]") {
     // Two tangled random curves (every far pair is close somewhere) and a torus link whose two
     // strands are apart except where they wind: the adaptive sum against the passes at uniform θ
     // and the direct sum, and the same bits for 1 and 3 threads.

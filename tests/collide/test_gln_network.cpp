@@ -105,7 +105,8 @@ TEST_CASE("gln network: fine rings enclose their point, coarse rings cover the b
         // a thin closed loop along the normal through c: up, and back down beside it (0.4 h away
         // is still inside the quarter-way ring only for the first leg)
         const Vec3 side = out.cross(std::abs(out.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).normalized();
-        const ClosedCurve probe = {c - 0.05 * out, c + 0.05 * out, c + 0.05 * out + 0.09 * side, c - 0.05 * out + 0.09 * side};
+        const ClosedCurve probe = {c - 0.05 * out, c + 0.05 * out, c + 0.05 * out + 0.09 * side,
+                                   c - 0.05 * out + 0.09 * side};
         INFO("point " << p);
         CHECK(loopsLinked(ring, probe));
     }
@@ -129,7 +130,8 @@ TEST_CASE("gln network: R of a ball pressed into a plane and a sphere matches th
         ContactSetReport rep = net.contactSet(rest, plane(-0.5), R);
         CHECK(rep.contacts == 0);
         CHECK(rep.colliderLoops == 0);
-        for (Real depth : {0.05, 0.3, 0.75}) {  // voxels above the lowest point (less than a layer: only surface points are inside)
+        for (Real depth :
+             {0.05, 0.3, 0.75}) {  // voxels above the lowest point (less than a layer: only surface points are inside)
             for (const SignedDistance& phi : {plane(depth * h), sphere(Vec3(0.8, -2.0 + depth * h, 0.83), 2.0),
                                               box(Vec3(-1, -2, -1), Vec3(3, depth * h, 3))}) {
                 rep = net.contactSet(rest, phi, R);
@@ -178,7 +180,8 @@ TEST_CASE("gln network: R is the same for any thread count", "[collide][gln][net
 TEST_CASE("gln contacts: the scene's collision setting", "[collide][gln][scene]") {
     const std::string obj = R"("objects": [{"primitive": {"type": "sphere"}}])";
     CHECK(parseScene("{" + obj + "}", "a.json").collision.detect == CollisionDesc::Detect::Sdf);
-    const SceneDesc g = parseScene("{" + obj + R"(, "collision": {"detect": "gln", "coarse_to_fine": true}})", "a.json");
+    const SceneDesc g =
+        parseScene("{" + obj + R"(, "collision": {"detect": "gln", "coarse_to_fine": true}})", "a.json");
     CHECK(g.collision.detect == CollisionDesc::Detect::Gln);
     CHECK(g.collision.coarseToFine);
     try {
@@ -201,7 +204,8 @@ void dropBall(const std::string& collider, bool coarse) {
         "forces": [{"type": "gravity"}],
         "collision": {"detect": "gln", "coarse_to_fine": )") +
                              (coarse ? "true" : "false") + R"(},
-        "colliders": [)" + collider + "]}";
+        "colliders": [)" + collider +
+                             "]}";
     const SceneDesc scene = parseScene(json, "dir/drop.json");
     // lowest point at y = 0.02 (the collider's top is at y = 0)
     const Lattice lat = test::sphereLattice(6, 0.05, Vec3(-0.3, 0.02, -0.3));
@@ -218,8 +222,8 @@ void dropBall(const std::string& collider, bool coarse) {
         truth += s.contactTruth;
         both += s.contactTruePositive;
     }
-    INFO(collider << ", coarse " << coarse << ": frames with contact " << frames << ", |R| " << r << ", truth "
-                  << truth << ", both " << both << ", max penetration " << worst << " voxels");
+    INFO(collider << ", coarse " << coarse << ": frames with contact " << frames << ", |R| " << r << ", truth " << truth
+                  << ", both " << both << ", max penetration " << worst << " voxels");
     REQUIRE(frames >= 5);
     CHECK(worst < 0.1);
     CHECK(both >= 0.9 * r);
@@ -256,11 +260,12 @@ TEST_CASE("gln contacts: cost per step, 24-voxel ball", "[.bench][gln]") {
             times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
         }
         std::sort(times.begin(), times.end());
-        std::printf("gln R, %lld points, %zu fine rings, %zu coarse, coarse_to_fine %d: build %.2f ms, R %.3f ms "
-                    "(median of 9), %lld loops, %lld pairs, |R| %lld\n",
-                    static_cast<long long>(lat.size()), net.fine().size(), net.coarse().size(), coarse ? 1 : 0,
-                    1e3 * build, 1e3 * times[4], static_cast<long long>(rep.colliderLoops),
-                    static_cast<long long>(rep.candidatePairs), static_cast<long long>(rep.contacts));
+        std::printf(
+            "gln R, %lld points, %zu fine rings, %zu coarse, coarse_to_fine %d: build %.2f ms, R %.3f ms "
+            "(median of 9), %lld loops, %lld pairs, |R| %lld\n",
+            static_cast<long long>(lat.size()), net.fine().size(), net.coarse().size(), coarse ? 1 : 0, 1e3 * build,
+            1e3 * times[4], static_cast<long long>(rep.colliderLoops), static_cast<long long>(rep.candidatePairs),
+            static_cast<long long>(rep.contacts));
     }
     for (bool gln : {false, true}) {
         DeformableBody body(lat, x, DynamicsSettings{});
@@ -300,37 +305,36 @@ TEST_CASE("gln contacts: the response reflects the depth by the restitution, wit
     // here: this box, 4 layers tall, squashes 1.2 times as much as it moves). Without it each point is moved
     // exactly.
     for (bool affine : {false, true})
-    for (bool gln : {false, true})
-        for (Real e : {0.0, 0.5, 1.0}) {
-            DynamicsSettings set;
-            set.affineContact = affine;
-            DeformableBody body(lat, restPositions(lat), set);
-            GlnNetwork net(lat);
-            if (gln)
-                body.setContactDetector([&](const std::vector<Vec3>& y, const Collider&, std::vector<unsigned char>& R) {
-                    net.contactSet(y, plane(0), R);
-                });
-            std::vector<Collider> cols(1);
-            cols[0].kind = Collider::Kind::Plane;
-            cols[0].friction = 0;
-            cols[0].restitution = e;
-            const StepReport r = body.step(ForceField{}, 1, 0.01, cols);
-            INFO("affine " << affine << ", gln " << gln << ", restitution " << e);
-            CHECK(r.contactTruth == 25);
-            CHECK(r.contacts == 25);
-            CHECK(r.contactTruePositive == 25);
-            CHECK(r.maxPenetration == 0);
-            for (Index p = 0; p < lat.size(); ++p)
-                if (lat.coords[static_cast<std::size_t>(p)].y() == 0) {
-                    CHECK(body.contact()[static_cast<std::size_t>(p)] == 1);
-                    CHECK(body.contactDepth()[static_cast<std::size_t>(p)] == Approx(0.03).margin(1e-12));
-                    const Real y = body.positions()[static_cast<std::size_t>(p)].y();
-                    if (affine) {
-                        CHECK(y >= -1e-12);
-                        CHECK(y <= e * 0.03 + 1e-3 * (1 + e) * 0.03);
-                    } else {
-                        CHECK(y == Approx(e * 0.03).margin(1e-12));
+        for (bool gln : {false, true})
+            for (Real e : {0.0, 0.5, 1.0}) {
+                DynamicsSettings set;
+                set.affineContact = affine;
+                DeformableBody body(lat, restPositions(lat), set);
+                GlnNetwork net(lat);
+                if (gln)
+                    body.setContactDetector([&](const std::vector<Vec3>& y, const Collider&,
+                                                std::vector<unsigned char>& R) { net.contactSet(y, plane(0), R); });
+                std::vector<Collider> cols(1);
+                cols[0].kind = Collider::Kind::Plane;
+                cols[0].friction = 0;
+                cols[0].restitution = e;
+                const StepReport r = body.step(ForceField{}, 1, 0.01, cols);
+                INFO("affine " << affine << ", gln " << gln << ", restitution " << e);
+                CHECK(r.contactTruth == 25);
+                CHECK(r.contacts == 25);
+                CHECK(r.contactTruePositive == 25);
+                CHECK(r.maxPenetration == 0);
+                for (Index p = 0; p < lat.size(); ++p)
+                    if (lat.coords[static_cast<std::size_t>(p)].y() == 0) {
+                        CHECK(body.contact()[static_cast<std::size_t>(p)] == 1);
+                        CHECK(body.contactDepth()[static_cast<std::size_t>(p)] == Approx(0.03).margin(1e-12));
+                        const Real y = body.positions()[static_cast<std::size_t>(p)].y();
+                        if (affine) {
+                            CHECK(y >= -1e-12);
+                            CHECK(y <= e * 0.03 + 1e-3 * (1 + e) * 0.03);
+                        } else {
+                            CHECK(y == Approx(e * 0.03).margin(1e-12));
+                        }
                     }
-                }
-        }
+            }
 }

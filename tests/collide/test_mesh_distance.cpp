@@ -90,7 +90,8 @@ TEST_CASE("mesh distance: the hierarchy finds the nearest triangle of a deformed
     const Real h = 0.05;
     const Lattice lat = test::sphereLattice(6, h, Vec3(-0.3, -0.3, -0.3), Vec3(0.2, 0.1, 0.3));
     std::vector<Vec3> x = restPositions(lat);
-    for (Vec3& p : x) p = Vec3(p.x() + 0.3 * p.y() + 0.5 * p.z() * p.z(), 0.8 * p.y(), p.z() / 0.8 + 0.2 * std::sin(4 * p.x()));
+    for (Vec3& p : x)
+        p = Vec3(p.x() + 0.3 * p.y() + 0.5 * p.z() * p.z(), 0.8 * p.y(), p.z() / 0.8 + 0.2 * std::sin(4 * p.x()));
     const TriangleMesh surface = latticeSurface(lat, x);
     const MeshDistance d(surface);
     std::mt19937_64 rng(11);
@@ -126,7 +127,8 @@ TEST_CASE("mesh distance: the hierarchy finds the nearest triangle of a deformed
 
 TEST_CASE("mesh distance: the sign is right beside an edge four faces share", "[collide][distance]") {
     // Two cells that touch along one edge only (the lattice surface is closed but not manifold
-    // there): the cells' insides are negative, the two empty quarters beside the edge positive, even where the nearest point is the edge's end.
+    // there): the cells' insides are negative, the two empty quarters beside the edge positive, even where the nearest
+    // point is the edge's end.
     const Vec3i dims(3, 3, 2);
     std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
     auto set = [&](int i, int j, int k) { mask[static_cast<std::size_t>(i + 3 * (j + 3 * k))] = 1; };

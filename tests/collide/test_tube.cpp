@@ -23,11 +23,15 @@ TEST_CASE("tube: closed, manifold, outward, at the given radius", "[collide][gln
         // Each cross-section: at distance r from its curve vertex.
         for (int i = 0; i < nv; ++i)
             for (int s = 0; s < sides; ++s)
-                REQUIRE(std::abs((m.vertices[static_cast<std::size_t>(i * sides + s)] - curve[static_cast<std::size_t>(i)]).norm() - r) < 1e-12);
+                REQUIRE(
+                    std::abs((m.vertices[static_cast<std::size_t>(i * sides + s)] - curve[static_cast<std::size_t>(i)])
+                                 .norm() -
+                             r) < 1e-12);
         // Closed and consistently oriented: every directed edge once, its reverse once.
         std::map<std::pair<int, int>, int> directed;
         for (const auto& t : m.triangles)
-            for (int k = 0; k < 3; ++k) ++directed[{t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)]}];
+            for (int k = 0; k < 3; ++k)
+                ++directed[{t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)]}];
         for (const auto& [e, count] : directed) {
             REQUIRE(count == 1);
             REQUIRE(directed.count({e.second, e.first}) == 1);
@@ -39,7 +43,9 @@ TEST_CASE("tube: closed, manifold, outward, at the given radius", "[collide][gln
     const TriangleMesh m = makeTube(ring, r, sides);
     Real volume = 0;
     for (const auto& t : m.triangles)
-        volume += m.vertices[static_cast<std::size_t>(t[0])].dot(m.vertices[static_cast<std::size_t>(t[1])].cross(m.vertices[static_cast<std::size_t>(t[2])])) / 6;
+        volume += m.vertices[static_cast<std::size_t>(t[0])].dot(
+                      m.vertices[static_cast<std::size_t>(t[1])].cross(m.vertices[static_cast<std::size_t>(t[2])])) /
+                  6;
     const Real expected = sides / 2.0 * r * r * std::sin(2 * M_PI / sides) * 2 * n * R * std::sin(M_PI / n);
     INFO("volume " << volume << " expected " << expected);
     // The sections are normal to the central-difference tangent, so consecutive prisms are

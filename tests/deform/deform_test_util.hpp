@@ -33,8 +33,7 @@ inline Lattice sphereLattice(Real radius) {
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= radius)
-                    mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
+                if ((Vec3(i, j, k) - c).norm() <= radius) mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
     return buildLattice(-c, 1, dims, mask);
 }
 

@@ -29,9 +29,7 @@ PointConnection randomSymmetric(std::mt19937_64& rng, Real scale = 1) {
     return g;
 }
 
-Real norm(const PointConnection& g) {
-    return std::sqrt(g[0].squaredNorm() + g[1].squaredNorm() + g[2].squaredNorm());
-}
+Real norm(const PointConnection& g) { return std::sqrt(g[0].squaredNorm() + g[1].squaredNorm() + g[2].squaredNorm()); }
 
 /// 27-vector of T^c_ab, index 9c + 3a + b.
 using Vec27 = Eigen::Matrix<Real, 27, 1>;
@@ -42,10 +40,16 @@ inline int idx(int c, int a, int b) { return 9 * c + 3 * a + b; }
 Mat3 expm(const Mat3& X) {
     int s = 0;
     Real n = X.norm();
-    while (n > 0.25) { n /= 2; ++s; }
+    while (n > 0.25) {
+        n /= 2;
+        ++s;
+    }
     const Mat3 Y = X / std::pow(2.0, s);
     Mat3 term = Mat3::Identity(), sum = Mat3::Identity();
-    for (int k = 1; k < 20; ++k) { term = (term * Y / Real(k)).eval(); sum += term; }
+    for (int k = 1; k < 20; ++k) {
+        term = (term * Y / Real(k)).eval();
+        sum += term;
+    }
     for (int i = 0; i < s; ++i) sum = (sum * sum).eval();
     return sum;
 }
@@ -59,8 +63,7 @@ Mat3 along(const PointConnection& g, const Vec3& v) {
 
 }  // namespace
 
-TEST_CASE("connection: dGamma from eps (eq 52) matches Gamma(deformed) - Gamma(rest) at 2nd order",
-          "[deform][slow]") {
+TEST_CASE("connection: dGamma from eps (eq 52) matches Gamma(deformed) - Gamma(rest) at 2nd order", "[deform][slow]") {
     const Vec3i cells(16, 8, 8);
     const Vec3 centre(8, 4, 4);
     struct Case {
@@ -91,15 +94,16 @@ TEST_CASE("connection: dGamma from eps (eq 52) matches Gamma(deformed) - Gamma(r
                     const Mat3 truth = def.christoffel[c][p] - rest.christoffel[c][p];
                     const Real e = (d[c][p] - truth).cwiseAbs().maxCoeff();
                     ref = std::max(ref, truth.cwiseAbs().maxCoeff());
-                    if (innerPoint(lat, p, 0.2)) err = std::max(err, e);
-                    else errB = std::max(errB, e);
+                    if (innerPoint(lat, p, 0.2))
+                        err = std::max(err, e);
+                    else
+                        errB = std::max(errB, e);
                 }
             }
             const Real rel = err / ref, relB = errB / ref;
             if (prev > 0) worstOrder = std::min(worstOrder, std::log2(prev / rel));
             if (prevB > 0) worstOrderB = std::min(worstOrderB, std::log2(prevB / relB));
-            if (verbose())
-                std::printf("dGamma %-18s m=%d: inner rel err %.3e, boundary %.3e\n", cs.name, m, rel, relB);
+            if (verbose()) std::printf("dGamma %-18s m=%d: inner rel err %.3e, boundary %.3e\n", cs.name, m, rel, relB);
             prev = rel;
             prevB = relB;
         }
@@ -109,8 +113,7 @@ TEST_CASE("connection: dGamma from eps (eq 52) matches Gamma(deformed) - Gamma(r
     }
 }
 
-TEST_CASE("connection: trace-free projection is symmetric, trace-free, idempotent, orthogonal",
-          "[deform]") {
+TEST_CASE("connection: trace-free projection is symmetric, trace-free, idempotent, orthogonal", "[deform]") {
     std::mt19937_64 rng(3);
     for (int t = 0; t < 100; ++t) {
         const PointConnection g = randomSymmetric(rng);
@@ -201,16 +204,20 @@ TEST_CASE("connection: trace-free dGamma keeps det M along a path (eqs 57, 60-61
         // tr dA = tau . v
         CHECK(along(dg, v).trace() == Approx(connectionTrace(dg).dot(v)).margin(1e-14));
     }
-    if (verbose()) std::printf("det M after 40 steps: raw %.6f, trace-free %.16f\n", Mraw.determinant(), Mfree.determinant());
+    if (verbose())
+        std::printf("det M after 40 steps: raw %.6f, trace-free %.16f\n", Mraw.determinant(), Mfree.determinant());
     CHECK(std::abs(Mfree.determinant() - 1) < 1e-12);
     CHECK(std::abs(Mraw.determinant() - 1) > 1e-3);
 }
 
 TEST_CASE("connection: sum_b Gamma^b_ab = d_a ln det(frame) on the lattice", "[deform]") {
     const Vec3 centre(8, 4, 4);
-    struct Case { const char* name; MapFn map; Real tol; };
-    const Case cases[] = {{"twist", twistMap(0.05, centre), 1e-12},
-                          {"stretch", stretchMap(0.1, centre, 8.0), 0}};
+    struct Case {
+        const char* name;
+        MapFn map;
+        Real tol;
+    };
+    const Case cases[] = {{"twist", twistMap(0.05, centre), 1e-12}, {"stretch", stretchMap(0.1, centre, 8.0), 0}};
     for (const Case& cs : cases) {
         Real prev = 0, worst = 10;
         for (int m : {1, 2, 4}) {
@@ -235,7 +242,8 @@ TEST_CASE("connection: sum_b Gamma^b_ab = d_a ln det(frame) on the lattice", "[d
                 err = std::max(err, (tau - grad).cwiseAbs().maxCoeff());
                 ref = std::max(ref, grad.cwiseAbs().maxCoeff());
             }
-            if (verbose()) std::printf("trace identity %s m=%d: abs err %.3e (|grad ln det| %.3e)\n", cs.name, m, err, ref);
+            if (verbose())
+                std::printf("trace identity %s m=%d: abs err %.3e (|grad ln det| %.3e)\n", cs.name, m, err, ref);
             if (cs.tol > 0) CHECK(err < cs.tol);
             if (prev > 0) worst = std::min(worst, std::log2(prev / (err / ref)));
             prev = err / ref;
@@ -244,8 +252,7 @@ TEST_CASE("connection: sum_b Gamma^b_ab = d_a ln det(frame) on the lattice", "[d
     }
 }
 
-TEST_CASE("connection: eq 57 holds for the transpose of the stored M (sign and order decision)",
-          "[deform]") {
+TEST_CASE("connection: eq 57 holds for the transpose of the stored M (sign and order decision)", "[deform]") {
     // Frames F (columns x_a) move by F(n) = F(0) H(0, n) (solve/holonomy.hpp, eq 18 with its
     // minus sign: H carries coefficients, frames carry H^-1), and Fbar = F M^T (eq 37). Hence
     // M^T(n) = H(n, 0) M^T(0) Hbar(0, n): eq 57 as written, for the seed's matrix convention
@@ -270,14 +277,15 @@ TEST_CASE("connection: eq 57 holds for the transpose of the stored M (sign and o
         run(kPlusJ, 3 * m);
         run(kPlusK, 2 * m);
         const std::vector<Index> back(path.rbegin(), path.rend());
-        const Mat3 H = pathHolonomy(lat, rest.christoffel, path);     // H(n, 0)
-        const Mat3 Hbar = pathHolonomy(lat, def.christoffel, back);   // Hbar(0, n)
+        const Mat3 H = pathHolonomy(lat, rest.christoffel, path);    // H(n, 0)
+        const Mat3 Hbar = pathHolonomy(lat, def.christoffel, back);  // Hbar(0, n)
         const Mat3 M0 = M[path.front()], Mn = M[path.back()];
         const Real err = (H * M0.transpose() * Hbar - Mn.transpose()).norm() / Mn.norm();
         // the other readings: M untransposed, or the holonomies swapped
         const Real wrong1 = (H * M0 * Hbar - Mn).norm() / Mn.norm();
         const Real wrong2 = (Hbar * M0.transpose() * H - Mn.transpose()).norm() / Mn.norm();
-        if (verbose()) std::printf("eq 57 m=%d: rel err %.3e (untransposed %.3e, swapped %.3e)\n", m, err, wrong1, wrong2);
+        if (verbose())
+            std::printf("eq 57 m=%d: rel err %.3e (untransposed %.3e, swapped %.3e)\n", m, err, wrong1, wrong2);
         CHECK(wrong1 > 100 * err);
         CHECK(wrong2 > 20 * err);  // swapping is O(1) wrong; err falls 4x per halving
         if (prev > 0) worstOrder = std::min(worstOrder, std::log2(prev / err));

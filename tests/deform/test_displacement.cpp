@@ -90,8 +90,8 @@ TEST_CASE("displacement: eqs 37-38 hold exactly on the lattice, the covariant de
                 frame << rest.tangent[0][p], rest.tangent[1][p], rest.tangent[2][p];
                 frameBar << def.tangent[0][p], def.tangent[1][p], def.tangent[2][p];
                 exact = std::max(exact, (deformedFrame(frame, M[p]) - frameBar).norm() / frameBar.norm());
-                exact = std::max(exact, (deformedMetric(M[p], rest.metric[p]) - def.metric[p]).norm() /
-                                            def.metric[p].norm());
+                exact = std::max(exact,
+                                 (deformedMetric(M[p], rest.metric[p]) - def.metric[p]).norm() / def.metric[p].norm());
                 if (!innerPoint(lat, p, 0.2)) continue;
                 const Mat3 D = M[p] - Mat3::Identity();
                 err = std::max(err, (D - literal[p].transpose()).norm());
@@ -101,8 +101,8 @@ TEST_CASE("displacement: eqs 37-38 hold exactly on the lattice, the covariant de
             const Real rel = err / ref;
             if (prev > 0) worstOrder = std::min(worstOrder, std::log2(prev / rel));
             if (verbose())
-                std::printf("eps_;a %s m=%d: eqs 37-38 rel err %.1e, against eq 11 literal %.3e\n",
-                            cs.name, m, exact, rel);
+                std::printf("eps_;a %s m=%d: eqs 37-38 rel err %.1e, against eq 11 literal %.3e\n", cs.name, m, exact,
+                            rel);
             prev = rel;
         }
         INFO(cs.name);

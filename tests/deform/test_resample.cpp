@@ -150,7 +150,8 @@ TEST_CASE("resample: a block's index orders its origin by z, then y, then x", "[
     }
 }
 
-TEST_CASE("resample: undeformed at h/2, lattice points on voxel centres hold the lattice's values", "[deform][resample]") {
+TEST_CASE("resample: undeformed at h/2, lattice points on voxel centres hold the lattice's values",
+          "[deform][resample]") {
     const Ball f = makeBall(4, 0.2, Vec3(0.3, -0.1, 0.05), 0.0);
     const Collected c = collect(f, 0.1, f.lat.originWorld);
     std::map<std::tuple<int, int, int>, std::pair<const ResampledBlock*, std::size_t>> voxel;

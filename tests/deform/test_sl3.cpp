@@ -119,7 +119,8 @@ TEST_CASE("sl3: eq 81 and nearest closed forms", "[deform]") {
     CHECK((projectToSL3Scale(R).matrix - R).norm() < 1e-14);
     // det <= 0: reported, M returned
     const Mat3 F = Vec3(-1, 1, 1).asDiagonal();
-    for (const Sl3Result& r : {projectToSL3Scale(F), projectToSL3Nearest(F), projectToSL3Deformation(F), projectToSL3(F)}) {
+    for (const Sl3Result& r :
+         {projectToSL3Scale(F), projectToSL3Nearest(F), projectToSL3Deformation(F), projectToSL3(F)}) {
         CHECK_FALSE(r.ok);
         CHECK(r.reason == Sl3Failure::kNonPositiveDet);
         CHECK(r.matrix == F);
@@ -208,12 +209,12 @@ TEST_CASE("sl3: measured choice of the default over random realistic matrices", 
                 REQUIRE(projectToSL3(M).matrix == c.matrix);
             }
             if (test::verbose())
-                std::printf("%-7s sigma %.3f: n %d | eq82 no root %5.1f%%, inverts %4.1f%%, mean dist %.3g "
-                            "(nearest on the same %.3g) | eq81 mean dist %.3g | nearest mean dist %.3g, "
-                            "max Newton its %d, max |det-1| %.1e\n",
-                            family ? "rotated" : "near 1", sigma, count, 100.0 * noRoot / count,
-                            100.0 * inverts / count, ok82 ? d82 / ok82 : 0.0, ok82 ? dNear82 / ok82 : 0.0,
-                            d81 / count, dNear / count, maxIter, detNear);
+                std::printf(
+                    "%-7s sigma %.3f: n %d | eq82 no root %5.1f%%, inverts %4.1f%%, mean dist %.3g "
+                    "(nearest on the same %.3g) | eq81 mean dist %.3g | nearest mean dist %.3g, "
+                    "max Newton its %d, max |det-1| %.1e\n",
+                    family ? "rotated" : "near 1", sigma, count, 100.0 * noRoot / count, 100.0 * inverts / count,
+                    ok82 ? d82 / ok82 : 0.0, ok82 ? dNear82 / ok82 : 0.0, d81 / count, dNear / count, maxIter, detNear);
             INFO((family ? "rotated" : "near 1") << " sigma " << sigma);
             CHECK(nearestFail == 0);
             CHECK(detNear < 1e-12);

@@ -27,7 +27,8 @@ std::array<Vec3, 8> unitCube(Real h, const Vec3& o = Vec3::Zero()) {
 /// Independent reference: n-point Gauss-Legendre (n = 5) of det J of the trilinear map.
 Real volumeByQuadrature(const std::array<Vec3, 8>& x) {
     const Real node[5] = {-0.9061798459386640, -0.5384693101056831, 0, 0.5384693101056831, 0.9061798459386640};
-    const Real weight[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889, 0.4786286704993665, 0.2369268850561891};
+    const Real weight[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889, 0.4786286704993665,
+                            0.2369268850561891};
     Real v = 0;
     for (int i = 0; i < 5; ++i)
         for (int j = 0; j < 5; ++j)
@@ -39,8 +40,10 @@ Real volumeByQuadrature(const std::array<Vec3, 8>& x) {
                     for (int a = 0; a < 3; ++a) {
                         Real d = 1;
                         for (int b = 0; b < 3; ++b) {
-                            if (b == a) d *= o[b] ? 1 : -1;
-                            else d *= o[b] ? s[b] : 1 - s[b];
+                            if (b == a)
+                                d *= o[b] ? 1 : -1;
+                            else
+                                d *= o[b] ? s[b] : 1 - s[b];
                         }
                         J.col(a) += d * x[static_cast<std::size_t>(c)];
                     }
@@ -107,9 +110,13 @@ TEST_CASE("volume: exact for a nonlinear trilinear cell, gradient", "[deform][vo
     }
 }
 
-TEST_CASE("volume: projection restores every cell volume, respects pins, is deterministic",
-          "[deform][volume]") {
-    struct Case { const char* name; Lattice lat; MapFn map; bool pin; };
+TEST_CASE("volume: projection restores every cell volume, respects pins, is deterministic", "[deform][volume]") {
+    struct Case {
+        const char* name;
+        Lattice lat;
+        MapFn map;
+        bool pin;
+    };
     const Vec3 c0(8, 4, 4);
     Case cases[] = {
         {"twist box", boxLattice(Vec3i(16, 8, 8), 1, 1), twistMap(0.05, c0), false},
@@ -143,8 +150,10 @@ TEST_CASE("volume: projection restores every cell volume, respects pins, is dete
         for (Index c = 0; c < cells.size(); ++c) {
             bool free = pinned.empty();
             for (int k = 0; k < 8 && !free; ++k) free = !pinned[cells.corners[c][k]];
-            if (free) REQUIRE(std::abs(v[c] / v0[c] - 1) < 1e-12);
-            else ++allPinned;
+            if (free)
+                REQUIRE(std::abs(v[c] / v0[c] - 1) < 1e-12);
+            else
+                ++allPinned;
         }
         CHECK(r.unconstrainable == allPinned);
         if (cs.pin) {
@@ -174,13 +183,15 @@ TEST_CASE("volume: projection timing on a 137k-point sphere", "[.][deform-bench]
     const std::vector<Vec3> x0 = restPositions(lat);
     const std::vector<Real> v0 = cellVolumes(cells, x0);
     for (Real amp : {0.002, 0.01, 0.03}) {
-        std::vector<Vec3> x = mapPoints(mapPoints(x0, twistMap(0.01, Vec3::Zero())), stretchMap(amp, Vec3::Zero(), 16.0));
+        std::vector<Vec3> x =
+            mapPoints(mapPoints(x0, twistMap(0.01, Vec3::Zero())), stretchMap(amp, Vec3::Zero(), 16.0));
         const auto t0 = std::chrono::steady_clock::now();
         const VolumeProjectionReport r = projectVolumes(cells, v0, {}, x);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        std::printf("sphere r=32: %lld points, %lld cells, amp %.3f: before %.3e after %.3e, %d GN, %d CG, move %.3e, %.3f s\n",
-                    (long long)lat.size(), (long long)cells.size(), amp, r.maxErrorBefore, r.maxErrorAfter,
-                    r.iterations, r.linearIterations, r.maxMove, s);
+        std::printf(
+            "sphere r=32: %lld points, %lld cells, amp %.3f: before %.3e after %.3e, %d GN, %d CG, move %.3e, %.3f s\n",
+            (long long)lat.size(), (long long)cells.size(), amp, r.maxErrorBefore, r.maxErrorAfter, r.iterations,
+            r.linearIterations, r.maxMove, s);
         CHECK(r.converged);
     }
 }
@@ -201,8 +212,7 @@ std::vector<Vec3> applyJt(const LatticeCells& cells, const std::vector<Vec3>& x,
 
 }  // namespace
 
-TEST_CASE("volume: checkerboard multipliers are in the null space of J^T inside a rest box",
-          "[deform][volume]") {
+TEST_CASE("volume: checkerboard multipliers are in the null space of J^T inside a rest box", "[deform][volume]") {
     // Point p's 8 cells sit at offsets sigma in {-1,1}^3 (cell centre - p, in half steps) with
     // dV/dx_p = -(h^2/4) sigma, so (J^T lambda)_p = -(h^2/4) sum_sigma lambda_sigma sigma: zero
     // for every lambda built from the sign patterns 1, s_x s_y, s_y s_z, s_x s_z, s_x s_y s_z, and
@@ -216,7 +226,11 @@ TEST_CASE("volume: checkerboard multipliers are in the null space of J^T inside 
     std::vector<Real> f(16), g(16), e(16);
     for (int i = 0; i < 16; ++i) f[i] = u(rng), g[i] = u(rng), e[i] = u(rng);
     auto sign = [](int n) { return (n & 1) ? Real(-1) : Real(1); };
-    struct Pattern { const char* name; std::function<Real(const Vec3i&)> value; bool null; };
+    struct Pattern {
+        const char* name;
+        std::function<Real(const Vec3i&)> value;
+        bool null;
+    };
     const Pattern patterns[] = {
         {"constant", [](const Vec3i&) { return Real(1); }, true},
         {"(-1)^(i+j)", [&](const Vec3i& c) { return sign(c.x() + c.y()); }, true},
@@ -224,11 +238,13 @@ TEST_CASE("volume: checkerboard multipliers are in the null space of J^T inside 
         {"(-1)^(i+k)", [&](const Vec3i& c) { return sign(c.x() + c.z()); }, true},
         {"(-1)^(i+j+k)", [&](const Vec3i& c) { return sign(c.x() + c.y() + c.z()); }, true},
         {"(-1)^(i+j) f(k)", [&](const Vec3i& c) { return sign(c.x() + c.y()) * f[c.z()]; }, true},
-        {"(-1)^(i+j+k) (f(i)+g(j)+e(k))", [&](const Vec3i& c) { return sign(c.x() + c.y() + c.z()) * (f[c.x()] + g[c.y()] + e[c.z()]); }, true},
+        {"(-1)^(i+j+k) (f(i)+g(j)+e(k))",
+         [&](const Vec3i& c) { return sign(c.x() + c.y() + c.z()) * (f[c.x()] + g[c.y()] + e[c.z()]); }, true},
         // controls: not null
         {"(-1)^i", [&](const Vec3i& c) { return sign(c.x()); }, false},
         {"(-1)^(i+j) f(i)", [&](const Vec3i& c) { return sign(c.x() + c.y()) * f[c.x()]; }, false},
-        {"(-1)^(i+j+k) f(i) g(j)", [&](const Vec3i& c) { return sign(c.x() + c.y() + c.z()) * f[c.x()] * g[c.y()]; }, false},
+        {"(-1)^(i+j+k) f(i) g(j)", [&](const Vec3i& c) { return sign(c.x() + c.y() + c.z()) * f[c.x()] * g[c.y()]; },
+         false},
     };
     for (const Pattern& pt : patterns) {
         INFO(pt.name);
@@ -291,9 +307,10 @@ TEST_CASE("volume: projection converges to 1e-10 from a volume-changing deformat
     std::vector<Vec3> y = start;
     const VolumeProjectionReport ro = projectVolumes(cells, v0, pinned, y, old);
     if (verbose())
-        std::printf("projection r=%g: %lld cells, %.3e -> %.3e in %d GN, %d CG (old: %.3e in %d GN, %d CG), move %.3e\n",
-                    R, (long long)cells.size(), r.maxErrorBefore, r.maxErrorAfter, r.iterations, r.linearIterations,
-                    ro.maxErrorAfter, ro.iterations, ro.linearIterations, r.maxMove);
+        std::printf(
+            "projection r=%g: %lld cells, %.3e -> %.3e in %d GN, %d CG (old: %.3e in %d GN, %d CG), move %.3e\n", R,
+            (long long)cells.size(), r.maxErrorBefore, r.maxErrorAfter, r.iterations, r.linearIterations,
+            ro.maxErrorAfter, ro.iterations, ro.linearIterations, r.maxMove);
     CHECK(r.maxErrorBefore > 1e-2);
     CHECK(r.converged);
     CHECK(r.maxErrorAfter <= 1e-10);
@@ -387,9 +404,10 @@ TEST_CASE("volume: cell errors of one sign within the tolerance do not leave the
     CHECK(r.maxErrorAfter <= tol);
 }
 
-TEST_CASE("volume: weighted by inverse masses with sliding contact points, the projection moves no momentum along "
-          "the surface",
-          "[deform][volume][contact]") {
+TEST_CASE(
+    "volume: weighted by inverse masses with sliding contact points, the projection moves no momentum along "
+    "the surface",
+    "[deform][volume][contact]") {
     // A ball lying on the plane y = y0 (its lowest layer), deformed off-centre. Masses are each
     // point's share of its cells (boundary points lighter), the weights their inverses. The
     // lowest layer slides on the plane: it may move in x and z only. Each cell's push sums to
@@ -445,10 +463,11 @@ TEST_CASE("volume: weighted by inverse masses with sliding contact points, the p
     Real movedOld = 0;
     const Vec3 pOld = momentum(y, movedOld);
     if (verbose())
-        std::printf("sliding, weighted: %.3e -> %.3e in %d GN; sum m dx = (%.2e, %.2e, %.2e) of sum m |dx| %.3e; "
-                    "held, unweighted: (%.2e, %.2e, %.2e) of %.3e\n",
-                    r.maxErrorBefore, r.maxErrorAfter, r.iterations, p.x(), p.y(), p.z(), moved, pOld.x(), pOld.y(),
-                    pOld.z(), movedOld);
+        std::printf(
+            "sliding, weighted: %.3e -> %.3e in %d GN; sum m dx = (%.2e, %.2e, %.2e) of sum m |dx| %.3e; "
+            "held, unweighted: (%.2e, %.2e, %.2e) of %.3e\n",
+            r.maxErrorBefore, r.maxErrorAfter, r.iterations, p.x(), p.y(), p.z(), moved, pOld.x(), pOld.y(), pOld.z(),
+            movedOld);
     CHECK(r.converged);
     CHECK(r.maxErrorBefore > 1e-3);
     CHECK(r.maxErrorAfter <= 1e-12);
@@ -468,9 +487,10 @@ TEST_CASE("volume: weighted by inverse masses with sliding contact points, the p
     for (Index q = 0; q < n; ++q) REQUIRE(x[q] == z[q]);
 }
 
-TEST_CASE("volume: the last calls' multipliers predict the next call's, a prediction that does not help changes "
-          "nothing",
-          "[deform][volume]") {
+TEST_CASE(
+    "volume: the last calls' multipliers predict the next call's, a prediction that does not help changes "
+    "nothing",
+    "[deform][volume]") {
     // A dynamics-like sequence: each call corrects the volume change of the same smooth
     // increment (a dilation growing along x and a twist about z) added to the last result, so
     // consecutive multipliers are alike (the stepper's case: docs/math.md, "The volume
@@ -522,10 +542,11 @@ TEST_CASE("volume: the last calls' multipliers predict the next call's, a predic
     s.multipliers = &wrong;
     const VolumeProjectionReport r2 = projectVolumes(cells, v0, {}, misled, s);
     if (verbose())
-        std::printf("predicted multipliers: %.3e -> %.3e in %d GN / %d CG without, %.3e in %d GN / %d CG with; "
-                    "wrong sign: predicted %d\n",
-                    r0.maxErrorBefore, r0.maxErrorAfter, r0.iterations, r0.linearIterations, r1.maxErrorAfter,
-                    r1.iterations, r1.linearIterations, r2.predicted);
+        std::printf(
+            "predicted multipliers: %.3e -> %.3e in %d GN / %d CG without, %.3e in %d GN / %d CG with; "
+            "wrong sign: predicted %d\n",
+            r0.maxErrorBefore, r0.maxErrorAfter, r0.iterations, r0.linearIterations, r1.maxErrorAfter, r1.iterations,
+            r1.linearIterations, r2.predicted);
     CHECK(r0.maxErrorBefore > 1e-4);
     CHECK(r0.converged);
     CHECK(r1.converged);

@@ -64,7 +64,8 @@ TEST_CASE("forces bench: bulk cost per field and analytic vs AutoDiff", "[.force
                 if (i * i + j * j + k * k <= 32 * 32) pts.push_back(Vec3(i, j, k) / 32.0);
     std::printf("%zu points, one thread, CPU time, best of 5\n", pts.size());
     const char* names[] = {"gravity", "attractor", "vortex", "burst", "wind (32 modes)"};
-    const ForceKind kinds[] = {ForceKind::Gravity, ForceKind::Attractor, ForceKind::Vortex, ForceKind::Burst, ForceKind::Wind};
+    const ForceKind kinds[] = {ForceKind::Gravity, ForceKind::Attractor, ForceKind::Vortex, ForceKind::Burst,
+                               ForceKind::Wind};
     for (int n = 0; n < 5; ++n) {
         ForceTerm t;
         t.kind = kinds[n];
@@ -83,7 +84,8 @@ TEST_CASE("forces bench: bulk cost per field and analytic vs AutoDiff", "[.force
                 f.sample(pts, 1, static_cast<ForceOrder>(o), out);
                 best[o] = std::min(best[o], threadCpuMs() - t0);
             }
-        std::printf("  %-16s value %7.2f ms   + gradient %7.2f ms   + Hessian %7.2f ms\n", names[n], best[0], best[1], best[2]);
+        std::printf("  %-16s value %7.2f ms   + gradient %7.2f ms   + Hessian %7.2f ms\n", names[n], best[0], best[1],
+                    best[2]);
     }
 
     ForceTerm a;
@@ -107,7 +109,8 @@ TEST_CASE("forces bench: bulk cost per field and analytic vs AutoDiff", "[.force
         maxDiff = std::max(maxDiff, (s.gradient - d.gradient).cwiseAbs().maxCoeff());
         for (int i = 0; i < 3; ++i) maxDiff = std::max(maxDiff, (s.hessian[i] - d.hessian[i]).cwiseAbs().maxCoeff());
     }
-    std::printf("attractor value+gradient+Hessian per point: analytic %.0f ns, nested AutoDiff %.0f ns; max |diff| %.2e (%g)\n",
-                analytic * 1e6 / pts.size(), autodiff * 1e6 / pts.size(), maxDiff, sink);
+    std::printf(
+        "attractor value+gradient+Hessian per point: analytic %.0f ns, nested AutoDiff %.0f ns; max |diff| %.2e (%g)\n",
+        analytic * 1e6 / pts.size(), autodiff * 1e6 / pts.size(), maxDiff, sink);
     CHECK(maxDiff < 1e-11);
 }

@@ -130,8 +130,9 @@ TEST_CASE("body: free fall under uniform gravity is exact", "[dynamics][body]") 
     }
     const Real t = steps * dt;
     const Vec3 exact = c0 + v0 * t + 0.5 * a * t * t;
-    if (verbose()) std::printf("free fall: |x - exact| = %.3e, |v - exact| = %.3e\n", (body.centre - exact).norm(),
-                               (body.velocity - (v0 + a * t)).norm());
+    if (verbose())
+        std::printf("free fall: |x - exact| = %.3e, |v - exact| = %.3e\n", (body.centre - exact).norm(),
+                    (body.velocity - (v0 + a * t)).norm());
     CHECK((body.centre - exact).norm() < 1e-12 * exact.norm());
     CHECK((body.velocity - (v0 + a * t)).norm() < 1e-12 * (v0 + a * t).norm());
     // the lattice moved with it
@@ -228,8 +229,9 @@ TEST_CASE("body: for a nonlinear field the moment gradient is the least-squares 
     const Real scale = fm.firstMoment.norm();
     const Real withMoment = normalResidual(fm.momentGradient());
     const Real withMean = normalResidual(fm.meanGradient);
-    if (verbose()) std::printf("vortex: normal-equation residual %.3e (moment) vs %.3e (eq 68 mean), scale %.3e\n",
-                               withMoment, withMean, scale);
+    if (verbose())
+        std::printf("vortex: normal-equation residual %.3e (moment) vs %.3e (eq 68 mean), scale %.3e\n", withMoment,
+                    withMean, scale);
     CHECK(withMoment < 1e-13 * scale);
     CHECK(withMean > 1e-3 * scale);
 }

@@ -55,8 +55,9 @@ struct Drop {
             const StepReport r = b.step(field, 1 + s / 240.0, 1.0 / 240, colliders);
             REQUIRE(r.fault.empty());
             if (std::getenv("DGV_TEST_VERBOSE"))
-                std::printf("step %d: contacts %lld, volume iterations %d, cache %zu\n", s, static_cast<long long>(r.contacts),
-                            r.volumeIterations, b.saveState().volumeCachePositions.size());
+                std::printf("step %d: contacts %lld, volume iterations %d, cache %zu\n", s,
+                            static_cast<long long>(r.contacts), r.volumeIterations,
+                            b.saveState().volumeCachePositions.size());
             most = std::max(most, r.contacts);
         }
         return most;
@@ -78,7 +79,7 @@ TEST_CASE("body_state: a body restored mid-run continues bit-identically", "[dyn
     const DeformableBodyState at12 = a->saveState();
     CHECK(at12.havePrev);
     CHECK(at12.positions.size() == static_cast<std::size_t>(d.lat.size()));
-    REQUIRE(d.run(*a, 12, 40) > 0);  // the run did reach the ground after the checkpoint
+    REQUIRE(d.run(*a, 12, 40) > 0);                         // the run did reach the ground after the checkpoint
     REQUIRE(!a->saveState().volumeCachePositions.empty());  // and carries a multigrid
 
     auto b = d.body();  // a fresh body: what a restarted dgv builds from the scene
@@ -125,7 +126,8 @@ TEST_CASE("body_state: the saved state round-trips and a wrong size does not fit
     CHECK_FALSE(b->stateFits(noPrev));
 }
 
-TEST_CASE("body_state: without the volume projection's multigrid inputs the run takes other bits", "[dynamics][checkpoint]") {
+TEST_CASE("body_state: without the volume projection's multigrid inputs the run takes other bits",
+          "[dynamics][checkpoint]") {
     // Why the state carries VolumeProjectionCache::builtFrom*: a multigrid built from another
     // step's matrix preconditions the CG differently, and the CG stops at a tolerance.
     const Drop d;

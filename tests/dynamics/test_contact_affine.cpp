@@ -26,8 +26,8 @@ bool verbose() { return std::getenv("DGV_TEST_VERBOSE") != nullptr; }
 /// `each(step, report)` after every step that did not fault. Returns the first fault ("" if
 /// none); `done` counts the steps completed.
 template <class Each>
-std::string stepAt96(DeformableBody& body, const ForceField& field, const std::vector<Collider>& colliders,
-                     int steps, int& done, Each&& each) {
+std::string stepAt96(DeformableBody& body, const ForceField& field, const std::vector<Collider>& colliders, int steps,
+                     int& done, Each&& each) {
     for (done = 0; done < steps; ++done) {
         const StepReport r = body.step(field, 1, 1.0 / 96, colliders);
         if (!r.fault.empty()) return r.fault;
@@ -45,7 +45,8 @@ struct SpinningJelly {
         test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
     DeformableBody body;
 
-    explicit SpinningJelly(Real omega, bool elasticLanding = true) : body(lat, restPositions(lat), settings(elasticLanding)) {
+    explicit SpinningJelly(Real omega, bool elasticLanding = true)
+        : body(lat, restPositions(lat), settings(elasticLanding)) {
         body.setRigidVelocity(Vec3::Zero(), Vec3(0, omega, 0));
     }
     static DynamicsSettings settings(bool elasticLanding) {
@@ -79,11 +80,12 @@ TEST_CASE("affine contact: one contact at the pole has the closed form", "[dynam
     CHECK((dc - lambda * n).norm() < 1e-15);
     const Mat3 expected = -(lambda * r / s) * (n * n.transpose() - Mat3::Identity() / 3);
     CHECK((dA - expected).norm() < 1e-14);
-    CHECK(std::abs(dA.trace()) < 1e-15);                       // volume kept to first order
+    CHECK(std::abs(dA.trace()) < 1e-15);                           // volume kept to first order
     CHECK(n.dot(dc + dA * (-r * n)) == Approx(d).epsilon(1e-12));  // lifted exactly out
 }
 
-TEST_CASE("affine contact: a patch on a tilted body is lifted out without pulling and keeps det A", "[dynamics][contact]") {
+TEST_CASE("affine contact: a patch on a tilted body is lifted out without pulling and keeps det A",
+          "[dynamics][contact]") {
     // A sheared, rotated body (det A = 1) with a 5x5 patch of contacts of varying depth on a plane.
     Mat3 a = Eigen::AngleAxis<Real>(0.4, Vec3(1, 2, 0.5).normalized()).toRotationMatrix();
     a = a * (Mat3() << 1.2, 0.1, 0, 0, 1 / 1.2, 0.05, 0, 0, 1).finished();
@@ -106,13 +108,14 @@ TEST_CASE("affine contact: a patch on a tilted body is lifted out without pullin
         over = std::max(over, lift - c.depth);
     }
     if (verbose())
-        std::printf("patch: shortfall %.2e (tolerance 1e-3 of the deepest 4.8e-3), largest excess lift %.2e, "
-                    "tr(A^-1 dA) %.1e, |dc| %.2e\n",
-                    worst, over, (a.inverse() * dA).trace(), dc.norm());
+        std::printf(
+            "patch: shortfall %.2e (tolerance 1e-3 of the deepest 4.8e-3), largest excess lift %.2e, "
+            "tr(A^-1 dA) %.1e, |dc| %.2e\n",
+            worst, over, (a.inverse() * dA).trace(), dc.norm());
     CHECK(worst <= 1e-3 * 0.0048);
-    CHECK(over < 0.0048);                                  // no point lifted further than the deepest is deep
+    CHECK(over < 0.0048);                                 // no point lifted further than the deepest is deep
     CHECK(std::abs((a.inverse() * dA).trace()) < 1e-14);  // det A kept to first order
-    CHECK(dc.y() > 0);                                     // pushed up, never pulled down
+    CHECK(dc.y() > 0);                                    // pushed up, never pulled down
 }
 
 TEST_CASE("affine contact: without contacts nothing moves", "[dynamics][contact]") {
@@ -132,7 +135,7 @@ TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it, wi
         int steps = 0;
         std::string fault;
         Real minY = 1, maxErr = 0, maxKe = 0, lateKe = 0;  // lateKe: the largest after 1 s
-        int firstContact = -1, stepsOffAfter = 0;           // steps without contact after the first
+        int firstContact = -1, stepsOffAfter = 0;          // steps without contact after the first
     };
     auto run = [&](bool affine, int steps) {
         DynamicsSettings set;
@@ -150,24 +153,26 @@ TEST_CASE("affine contact: a jelly dropped on the ground comes to rest on it, wi
             if (r.contacts == 0 && o.firstContact >= 0) ++o.stepsOffAfter;
             for (const Vec3& x : body.positions()) o.minY = std::min(o.minY, x.y());
             if (verbose() && affine && s % 24 == 23)
-                std::printf("  t %.2f s: KE %.3g J, centre y %.4f, |v_c| %.2e, |dA/dt| %.2e, sum dGamma^2 %.3g, A_yy %.4f\n",
-                            (s + 1) / 96.0, r.kineticEnergy, body.centre().y(), body.centreVelocity().norm(),
-                            body.flexVelocity().norm(), r.sumDeltaGamma2, body.flex()(1, 1));
+                std::printf(
+                    "  t %.2f s: KE %.3g J, centre y %.4f, |v_c| %.2e, |dA/dt| %.2e, sum dGamma^2 %.3g, A_yy %.4f\n",
+                    (s + 1) / 96.0, r.kineticEnergy, body.centre().y(), body.centreVelocity().norm(),
+                    body.flexVelocity().norm(), r.sumDeltaGamma2, body.flex()(1, 1));
         });
         return o;
     };
     const int steps = 192;  // 2 s: lands after ~0.05 s
     const Outcome o = run(true, steps);
     if (verbose())
-        std::printf("jelly drop with the affine response: %d/%d steps %s, first contact at step %d, steps off the "
-                    "ground after it %d, lowest point %.2e m, max cell error %.2e, kinetic energy: peak %.3g J, "
-                    "largest after 1 s %.3g J\n",
-                    o.steps, steps, o.fault.c_str(), o.firstContact, o.stepsOffAfter, o.minY, o.maxErr, o.maxKe, o.lateKe);
+        std::printf(
+            "jelly drop with the affine response: %d/%d steps %s, first contact at step %d, steps off the "
+            "ground after it %d, lowest point %.2e m, max cell error %.2e, kinetic energy: peak %.3g J, "
+            "largest after 1 s %.3g J\n",
+            o.steps, steps, o.fault.c_str(), o.firstContact, o.stepsOffAfter, o.minY, o.maxErr, o.maxKe, o.lateKe);
     CHECK(o.steps == steps);
     CHECK(o.fault.empty());
     CHECK(o.firstContact >= 0);
-    CHECK(o.stepsOffAfter == 0);    // lands and stays: no hop off its own squash
-    CHECK(o.minY > -0.1 * 0.05);    // under a tenth of a voxel into the ground
+    CHECK(o.stepsOffAfter == 0);  // lands and stays: no hop off its own squash
+    CHECK(o.minY > -0.1 * 0.05);  // under a tenth of a voxel into the ground
     CHECK(o.maxErr <= 1e-4);
     CHECK(o.lateKe < 0.01 * o.maxKe);  // the impact is absorbed; what is left is the slow sag (docs/math.md)
     const Outcome without = run(false, steps);
@@ -203,44 +208,47 @@ TEST_CASE("contact: a landing jelly squashes and throws its squash back, landing
         DeformableBody body(lat, restPositions(lat), set);
         body.setRigidVelocity(Vec3(0, -3, 0), Vec3::Zero());
         Outcome o;
-        o.fault = stepAt96(body, test::gravityField(), {test::groundPlane()}, steps, o.steps, [&](int s, const StepReport& rep) {
-            if (rep.contacts > 0 && o.firstContact < 0) o.firstContact = s;
-            if (o.firstContact < 0) o.impactKe = std::max(o.impactKe, rep.kineticEnergy);
-            // the squash: the first 0.2 s after touching; the rebound: the 0.2 s after that
-            const int since = o.firstContact < 0 ? -1 : s - o.firstContact;
-            if (since >= 0 && since < 20) {
-                o.squashKe = std::min(o.squashKe, rep.kineticEnergy);
-                o.minAyy = std::min(o.minAyy, body.flex()(1, 1));
-            } else if (since >= 20 && since < 40) {
-                o.reboundKe = std::max(o.reboundKe, rep.kineticEnergy);
-                o.reboundAyy = std::max(o.reboundAyy, body.flex()(1, 1));
-            }
-            if (s >= steps - 48) o.lateKe = std::max(o.lateKe, rep.kineticEnergy);
-            o.maxErr = std::max(o.maxErr, rep.maxCellVolumeError);
-            for (const Vec3& x : body.positions()) o.lowest = std::min(o.lowest, x.y());
-            if (verbose() && elastic && s % 8 == 0)
-                std::printf("  landing jelly, t %.3f s: KE %.4g J, centre y %.4f, A_yy %.4f, contacts %lld\n", s / 96.0,
-                            rep.kineticEnergy, body.centre().y(), body.flex()(1, 1), static_cast<long long>(rep.contacts));
-        });
+        o.fault = stepAt96(
+            body, test::gravityField(), {test::groundPlane()}, steps, o.steps, [&](int s, const StepReport& rep) {
+                if (rep.contacts > 0 && o.firstContact < 0) o.firstContact = s;
+                if (o.firstContact < 0) o.impactKe = std::max(o.impactKe, rep.kineticEnergy);
+                // the squash: the first 0.2 s after touching; the rebound: the 0.2 s after that
+                const int since = o.firstContact < 0 ? -1 : s - o.firstContact;
+                if (since >= 0 && since < 20) {
+                    o.squashKe = std::min(o.squashKe, rep.kineticEnergy);
+                    o.minAyy = std::min(o.minAyy, body.flex()(1, 1));
+                } else if (since >= 20 && since < 40) {
+                    o.reboundKe = std::max(o.reboundKe, rep.kineticEnergy);
+                    o.reboundAyy = std::max(o.reboundAyy, body.flex()(1, 1));
+                }
+                if (s >= steps - 48) o.lateKe = std::max(o.lateKe, rep.kineticEnergy);
+                o.maxErr = std::max(o.maxErr, rep.maxCellVolumeError);
+                for (const Vec3& x : body.positions()) o.lowest = std::min(o.lowest, x.y());
+                if (verbose() && elastic && s % 8 == 0)
+                    std::printf("  landing jelly, t %.3f s: KE %.4g J, centre y %.4f, A_yy %.4f, contacts %lld\n",
+                                s / 96.0, rep.kineticEnergy, body.centre().y(), body.flex()(1, 1),
+                                static_cast<long long>(rep.contacts));
+            });
         return o;
     };
     const Outcome o = run(true), thud = run(false);
     if (verbose())
-        std::printf("landing jelly: impact %.4g J, squash %.4g J (A_yy %.3f), rebound %.4g J (A_yy %.3f), last 0.5 s "
-                    "%.3g J, lowest point %.2e m, max cell error %.2e; inelastic: squash A_yy %.3f, rebound %.4g J "
-                    "(A_yy %.3f)\n",
-                    o.impactKe, o.squashKe, o.minAyy, o.reboundKe, o.reboundAyy, o.lateKe, o.lowest, o.maxErr,
-                    thud.minAyy, thud.reboundKe, thud.reboundAyy);
+        std::printf(
+            "landing jelly: impact %.4g J, squash %.4g J (A_yy %.3f), rebound %.4g J (A_yy %.3f), last 0.5 s "
+            "%.3g J, lowest point %.2e m, max cell error %.2e; inelastic: squash A_yy %.3f, rebound %.4g J "
+            "(A_yy %.3f)\n",
+            o.impactKe, o.squashKe, o.minAyy, o.reboundKe, o.reboundAyy, o.lateKe, o.lowest, o.maxErr, thud.minAyy,
+            thud.reboundKe, thud.reboundAyy);
     INFO(o.fault);
     REQUIRE(o.steps == steps);
     REQUIRE(o.firstContact > 0);
     // Measured: impact 461 J, squash to A_yy 0.40 with 1.3 J left, rebound 79 J to A_yy 1.11
     // (the patch nearly leaves the ground), a second squash and rebound, then it settles.
-    CHECK(o.minAyy < 0.6);                    // a big squash
-    CHECK(o.squashKe < 0.1 * o.impactKe);     // the impact's energy goes into it ...
-    CHECK(o.reboundKe > 0.1 * o.impactKe);    // ... and comes back out
-    CHECK(o.reboundAyy > 0.95);               // the squash is thrown back past the sag
-    CHECK(o.lateKe < 1e-3 * o.impactKe);      // and it comes to rest
+    CHECK(o.minAyy < 0.6);                  // a big squash
+    CHECK(o.squashKe < 0.1 * o.impactKe);   // the impact's energy goes into it ...
+    CHECK(o.reboundKe > 0.1 * o.impactKe);  // ... and comes back out
+    CHECK(o.reboundAyy > 0.95);             // the squash is thrown back past the sag
+    CHECK(o.lateKe < 1e-3 * o.impactKe);    // and it comes to rest
     CHECK(o.lowest > -0.1 * h);
     CHECK(o.maxErr <= 1e-4);
     // The inelastic landing: the kinetic energy is gone and does not come back (measured
@@ -265,7 +273,7 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
         int steps = 0;
         std::string fault;
         Real maxDg2 = 0, lateDg2 = 0, maxKe = 0, lateKe = 0, maxErr = 0;  // late: the last second
-        Real dg2At[3] = {0, 0, 0};  // at 1, 2 and 3 s
+        Real dg2At[3] = {0, 0, 0};                                        // at 1, 2 and 3 s
         long limited = 0;
     };
     const int steps = 288;  // 3 s at 96 steps/s
@@ -287,18 +295,20 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
             }
             if (s % 96 == 95) o.dg2At[s / 96] = rep.sumDeltaGamma2;
             if (verbose() && s % 48 == 47)
-                std::printf("  anti-windup %d, t %.1f s: sum dGamma^2 %.3g, KE %.3g J, limited %ld\n", antiWindup ? 1 : 0,
-                            (s + 1) / 96.0, rep.sumDeltaGamma2, rep.kineticEnergy, static_cast<long>(rep.limitedPoints));
+                std::printf("  anti-windup %d, t %.1f s: sum dGamma^2 %.3g, KE %.3g J, limited %ld\n",
+                            antiWindup ? 1 : 0, (s + 1) / 96.0, rep.sumDeltaGamma2, rep.kineticEnergy,
+                            static_cast<long>(rep.limitedPoints));
         });
         return o;
     };
     const Outcome on = run(true), off = run(false);
     if (verbose())
-        std::printf("resting jelly (r %d voxels, k 1000): with anti-windup %d steps, max sum dGamma^2 %.3g (last second "
-                    "%.3g), KE peak %.3g last second %.3g, %ld limited, max cell error %.2e; without: %d steps %s, max sum "
-                    "dGamma^2 %.3g (last second %.3g), %ld limited\n",
-                    r, on.steps, on.maxDg2, on.lateDg2, on.maxKe, on.lateKe, on.limited, on.maxErr, off.steps,
-                    off.fault.c_str(), off.maxDg2, off.lateDg2, off.limited);
+        std::printf(
+            "resting jelly (r %d voxels, k 1000): with anti-windup %d steps, max sum dGamma^2 %.3g (last second "
+            "%.3g), KE peak %.3g last second %.3g, %ld limited, max cell error %.2e; without: %d steps %s, max sum "
+            "dGamma^2 %.3g (last second %.3g), %ld limited\n",
+            r, on.steps, on.maxDg2, on.lateDg2, on.maxKe, on.lateKe, on.limited, on.maxErr, off.steps,
+            off.fault.c_str(), off.maxDg2, off.lateDg2, off.limited);
     CHECK(on.steps == steps);
     CHECK(on.fault.empty());
     CHECK(on.limited == 0);
@@ -310,7 +320,7 @@ TEST_CASE("twist anti-windup: a stiff jelly resting on the ground keeps its twis
     // at 2 and 3 s.
     CHECK(on.maxDg2 < 0.02);
     CHECK(on.dg2At[2] < 5 * on.dg2At[0]);  // not winding up: measured 1.2 times
-    CHECK(on.lateKe < 0.05 * on.maxKe);  // it settles
+    CHECK(on.lateKe < 0.05 * on.maxKe);    // it settles
     CHECK(on.maxErr <= 1e-4);
     // Without it: the twist winds up (the run may fault before the end).
     CHECK(std::max(off.maxDg2, off.lateDg2) > 100 * on.maxDg2);
@@ -334,7 +344,8 @@ TEST_CASE("contact: a jelly resting on a frictionless ground stays where it is, 
     // keep its speed (1.5e-3 m/s when friction braked only the contact points).
     const int r = 5;
     const Real h = 0.06;
-    const Lattice lat = test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
+    const Lattice lat =
+        test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
     const ForceField g = test::gravityField();
     const int steps = 1152;  // 12 s at 96 steps/s
     struct Outcome {
@@ -369,10 +380,11 @@ TEST_CASE("contact: a jelly resting on a frictionless ground stays where it is, 
         const Outcome o = run(friction);
         const Real moved = horizontal(o.end, o.settled);
         if (verbose())
-            std::printf("resting jelly, friction %.1f: %d steps %s, KE peak %.3g J, last second %.3g J, largest "
-                        "horizontal speed after 1 s %.2e m/s, in the last 2 s %.2e m/s; moved %.2e m from 1 s to 12 s; "
-                        "max cell error %.2e\n",
-                        friction, o.steps, o.fault.c_str(), o.maxKe, o.lateKe, o.slide, o.lateSlide, moved, o.maxErr);
+            std::printf(
+                "resting jelly, friction %.1f: %d steps %s, KE peak %.3g J, last second %.3g J, largest "
+                "horizontal speed after 1 s %.2e m/s, in the last 2 s %.2e m/s; moved %.2e m from 1 s to 12 s; "
+                "max cell error %.2e\n",
+                friction, o.steps, o.fault.c_str(), o.maxKe, o.lateKe, o.slide, o.lateSlide, moved, o.maxErr);
         INFO("friction " << friction << ": " << o.fault);
         CHECK(o.steps == steps);
         if (friction == 0) {
@@ -412,21 +424,23 @@ TEST_CASE("contact: a jelly spinning on a frictionless ground is not spun up by 
     const int steps = 288;  // 3 s at 96 steps/s
     Real first = 0, lo = 0, hi = 0, stretch = 0;
     int done = 0;
-    const std::string fault = stepAt96(body, test::gravityField(), {ground}, steps, done, [&](int s, const StepReport&) {
-        const Real L = spin();
-        if (s == 0) first = lo = hi = L;
-        lo = std::min(lo, L);
-        hi = std::max(hi, L);
-        stretch = std::max(stretch, (body.flex().transpose() * body.flex() - Mat3::Identity()).norm());
-    });
+    const std::string fault =
+        stepAt96(body, test::gravityField(), {ground}, steps, done, [&](int s, const StepReport&) {
+            const Real L = spin();
+            if (s == 0) first = lo = hi = L;
+            lo = std::min(lo, L);
+            hi = std::max(hi, L);
+            stretch = std::max(stretch, (body.flex().transpose() * body.flex() - Mat3::Identity()).norm());
+        });
     if (verbose())
-        std::printf("spinning jelly on a frictionless ground: L_y %.6g after the first step, %.6g .. %.6g over 3 s "
-                    "(%d steps %s), largest |AᵀA − 1| %.3f\n",
-                    first, lo, hi, done, fault.c_str(), stretch);
+        std::printf(
+            "spinning jelly on a frictionless ground: L_y %.6g after the first step, %.6g .. %.6g over 3 s "
+            "(%d steps %s), largest |AᵀA − 1| %.3f\n",
+            first, lo, hi, done, fault.c_str(), stretch);
     INFO(fault);
     REQUIRE(done == steps);
     CHECK(first > 0);
-    CHECK(stretch > 0.3);  // it sags: the spin rate alone would not be conserved
+    CHECK(stretch > 0.3);             // it sags: the spin rate alone would not be conserved
     CHECK(hi <= (1 + 1e-3) * first);  // never more: measured 2e-4 above it, in the first steps
     CHECK(lo > 0.995 * first);        // measured 0.9993 of it (0.882 with the nearest SL(3) matrix)
 }
@@ -442,7 +456,8 @@ TEST_CASE("contact: a jelly spinning about a horizontal axis on a rough ground r
     // across the radius) folded its contact layer in 23 steps (or 5 at k = 3000).
     const int r = 5;
     const Real h = 0.06;
-    const Lattice lat = test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
+    const Lattice lat =
+        test::sphereLattice(r, h, Vec3(0, (r - 0.2) * h, 0) - Vec3::Constant(r * h), Vec3(0.31, 0.17, -0.23));
     const Real w0 = 10, g = 9.81;
     struct Outcome {
         int steps = 0, rolling = -1;  // the first step with the patch's slip under 2 % of the start's
@@ -508,9 +523,10 @@ TEST_CASE("contact: a jelly spinning about a horizontal axis on a rough ground r
         const Real normal = g + (o.vy[last] - o.vy[1]) / T;  // the normal impulse a second, per unit mass
         const Real vRoll = -o.vx[static_cast<std::size_t>(o.rolling)];
         if (verbose())
-            std::printf("rolling ball, friction 0.5: sliding acceleration %.4f m/s^2 (mu g %.4f, mu x the measured "
-                        "normal impulse %.4f); rolls from step %d at %.4f m/s (rigid ball %.4f)\n",
-                        -accel, 0.5 * g, 0.5 * normal, o.rolling, vRoll, o.expected);
+            std::printf(
+                "rolling ball, friction 0.5: sliding acceleration %.4f m/s^2 (mu g %.4f, mu x the measured "
+                "normal impulse %.4f); rolls from step %d at %.4f m/s (rigid ball %.4f)\n",
+                -accel, 0.5 * g, 0.5 * normal, o.rolling, vRoll, o.expected);
         CHECK(-accel == Approx(0.5 * normal).epsilon(0.03));  // measured 5.124 against 5.116 m/s² (+0.2 %)
         CHECK(normal == Approx(g).epsilon(0.1));  // it slides on the ground, not bouncing off it: 10.23 m/s²
         // measured 0.795 m/s at step 16 (+2.7 %; 0.752 at step 15, −2.9 %, while the flex lost its
@@ -523,8 +539,10 @@ TEST_CASE("contact: a jelly spinning about a horizontal axis on a rough ground r
         REQUIRE(o.steps == 48);
         Real drift = 0;
         for (Real v : o.vx) drift = std::max(drift, std::abs(v));
-        if (verbose()) std::printf("rolling ball, friction 0: largest |v_x| %.3g m/s, spin %.3f rad/s after 0.5 s\n", drift, o.spinEnd);
-        CHECK(drift < 1e-9);  // nothing pushes it along the ground
+        if (verbose())
+            std::printf("rolling ball, friction 0: largest |v_x| %.3g m/s, spin %.3f rad/s after 0.5 s\n", drift,
+                        o.spinEnd);
+        CHECK(drift < 1e-9);          // nothing pushes it along the ground
         CHECK(o.spinEnd > 0.5 * w0);  // measured 6.8 rad/s (the faceted rim knocks on the ground)
     }
 }
@@ -549,16 +567,18 @@ TEST_CASE("contact: a jelly spinning like a top on a rough ground stops turning"
         if (verbose() && s % 12 == 0) std::printf("  top, step %3d: L_y %.5g\n", s, spin());
     });
     if (verbose())
-        std::printf("jelly spinning like a top on a rough ground: L_y %.4g at the start, %.4g after 1 s, at most %.4g in the "
-                    "second after\n",
-                    start, at1, late);
+        std::printf(
+            "jelly spinning like a top on a rough ground: L_y %.4g at the start, %.4g after 1 s, at most %.4g in the "
+            "second after\n",
+            start, at1, late);
     INFO(fault);
     REQUIRE(done == 192);
     CHECK(std::abs(at1) < 0.01 * start);  // measured 3e-5 of it (stopped at 0.75 s)
     CHECK(late < 0.01 * start);
 }
 
-TEST_CASE("contact: a goo ball resting on the ground spreads without crushing its bottom layer", "[dynamics][contact][slow]") {
+TEST_CASE("contact: a goo ball resting on the ground spreads without crushing its bottom layer",
+          "[dynamics][contact][slow]") {
     // The ball of `contact_ball` (0.5 m, 20 voxels across, goo: no shape memory) dropped at
     // 1.5 m/s onto the ground, 2 substeps at 24 fps (docs/math.md, "Goo resting on the
     // ground"). Goo spreads on without end on its flat bottom facet; the affine lift puts the
@@ -591,8 +611,9 @@ TEST_CASE("contact: a goo ball resting on the ground spreads without crushing it
         return std::string();
     }();
     if (verbose())
-        std::printf("goo ball on the ground: %d steps %s, squash A_yy %.3f, smallest det F/h^3 %.3f, max cell error %.2e\n",
-                    done, fault.c_str(), body.flex()(1, 1), lowest, maxErr);
+        std::printf(
+            "goo ball on the ground: %d steps %s, squash A_yy %.3f, smallest det F/h^3 %.3f, max cell error %.2e\n",
+            done, fault.c_str(), body.flex()(1, 1), lowest, maxErr);
     INFO(fault);
     REQUIRE(done == steps);
     CHECK(body.flex()(1, 1) < 0.5);  // it did spread: measured 0.234 (0.369 at the fold before)

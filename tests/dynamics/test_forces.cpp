@@ -144,11 +144,11 @@ FdCheck fdCheck(const ForceField& f, const Vec3& x, Real h, int which) {
 /// extrapolation is at least 30× closer than the h/2 difference (its error is O(h⁴), here
 /// h² ≈ 1e-4 relative to the field's length scale).
 void requireConverges(const FdCheck& c, const char* what, const Vec3& x) {
-    INFO(what << " at " << x.transpose() << ": err(h) " << c.errH << ", err(h/2) " << c.errH2
-              << ", Richardson " << c.errRich << ", magnitude " << c.magnitude);
+    INFO(what << " at " << x.transpose() << ": err(h) " << c.errH << ", err(h/2) " << c.errH2 << ", Richardson "
+              << c.errRich << ", magnitude " << c.magnitude);
     if (verbose())
-        std::printf("  %-28s |d| %9.3e  err(h) %9.3e  ratio %6.3f  richardson %9.3e\n", what,
-                    c.magnitude, c.errH, c.errH2 > 0 ? c.errH / c.errH2 : 0.0, c.errRich);
+        std::printf("  %-28s |d| %9.3e  err(h) %9.3e  ratio %6.3f  richardson %9.3e\n", what, c.magnitude, c.errH,
+                    c.errH2 > 0 ? c.errH / c.errH2 : 0.0, c.errRich);
     const Real roundoff = 1e-9 * (1 + c.magnitude);
     if (c.errH <= roundoff) {
         REQUIRE(c.errH2 <= 2 * roundoff);
@@ -186,7 +186,11 @@ TEST_CASE("forces: keyframes interpolate linearly and hold outside the keys", "[
     ForceTerm t = vortex();
     t.strength = k;
     const ForceField f = fieldOf({t});
-    const ForceTerm one = [&] { ForceTerm u = vortex(); u.strength = Keyframes::constant(1); return u; }();
+    const ForceTerm one = [&] {
+        ForceTerm u = vortex();
+        u.strength = Keyframes::constant(1);
+        return u;
+    }();
     const ForceField unit = fieldOf({one});
     const Vec3 x(0.3, 0.9, -0.2);
     const ForceSample s1 = unit.sample(x, 0);
@@ -262,16 +266,22 @@ TEST_CASE("forces: gradients and Hessians match central differences for every fi
     struct Case {
         const char* name;
         std::vector<ForceTerm> terms;
-        Vec3 centre;   ///< where to sample around
-        Real length;   ///< the field's length scale: h = 0.01 length
+        Vec3 centre;  ///< where to sample around
+        Real length;  ///< the field's length scale: h = 0.01 length
     };
     std::vector<Case> cases = {
         {"gravity", {gravity()}, Vec3(0, 0, 0), 1},
         {"attractor p=2", {attractor(2)}, attractor().centre, 0.2},
         {"attractor p=1", {attractor(1)}, attractor().centre, 0.2},
         {"attractor p=0.5", {attractor(0.5)}, attractor().centre, 0.2},
-        {"repeller p=3", {[] { ForceTerm t = attractor(3); t.strength = Keyframes::constant(-2); return t; }()},
-         attractor().centre, 0.2},
+        {"repeller p=3",
+         {[] {
+             ForceTerm t = attractor(3);
+             t.strength = Keyframes::constant(-2);
+             return t;
+         }()},
+         attractor().centre,
+         0.2},
         {"vortex n=1", {vortex(1)}, vortex().centre, 0.7},
         {"vortex n=2.5", {vortex(2.5)}, vortex().centre, 0.7},
         {"burst", {burst()}, burst().centre, 0.8},
@@ -361,7 +371,8 @@ TEST_CASE("forces: a sum of fields is the sum of their samples", "[dynamics][for
         const ForceSample s = all.sample(x, 0);
         REQUIRE((s.value - sum.value).norm() <= 1e-14 * (1 + sum.value.norm()));
         REQUIRE(maxAbs(s.gradient - sum.gradient) <= 1e-14 * (1 + maxAbs(sum.gradient)));
-        for (int i = 0; i < 3; ++i) REQUIRE(maxAbs(s.hessian[i] - sum.hessian[i]) <= 1e-14 * (1 + maxAbs(sum.hessian[i])));
+        for (int i = 0; i < 3; ++i)
+            REQUIRE(maxAbs(s.hessian[i] - sum.hessian[i]) <= 1e-14 * (1 + maxAbs(sum.hessian[i])));
         // lower orders: the same values, higher orders left zero
         const ForceSample v = all.sample(x, 0, ForceOrder::Value);
         REQUIRE(v.value == s.value);
@@ -372,7 +383,8 @@ TEST_CASE("forces: a sum of fields is the sum of their samples", "[dynamics][for
     }
 }
 
-TEST_CASE("forces: evaluation is deterministic (seeds, bulk vs point, thread count)", "[dynamics][forces][determinism]") {
+TEST_CASE("forces: evaluation is deterministic (seeds, bulk vs point, thread count)",
+          "[dynamics][forces][determinism]") {
     const std::vector<ForceTerm> terms = {attractor(), vortex(), burst(), wind(42)};
     const std::vector<Vec3> points = randomPoints(20000, Vec3::Zero(), 2, 29);
     ForceSamples one, two;

@@ -58,7 +58,8 @@ TEST_CASE("forces_from_scene: every key of every force type reaches the field", 
 
     // The defaults the parser fills in: softening = radius/4, attractor falloff 2, vortex 1.
     const SceneDesc d = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}],
-        "forces": [{"type": "attractor", "radius": 2}, {"type": "vortex"}]})", "d.json");
+        "forces": [{"type": "attractor", "radius": 2}, {"type": "vortex"}]})",
+                                   "d.json");
     const ForceField fd = forceFieldFromScene(d.forces);
     CHECK(fd.terms()[0].softening == 0.5);
     CHECK(fd.terms()[0].falloff == 2);
@@ -92,7 +93,8 @@ TEST_CASE("forces_from_scene: the scene's field is the sum of its forces at ever
     CHECK(forceFieldFromScene({}).empty());
 }
 
-TEST_CASE("forces_from_scene: a force the parser did not validate is reported by scene path", "[dynamics][forces][scene]") {
+TEST_CASE("forces_from_scene: a force the parser did not validate is reported by scene path",
+          "[dynamics][forces][scene]") {
     ForceDesc d;
     d.type = ForceType::Attractor;
     d.strength.keys = {{1, 1}};

@@ -73,8 +73,8 @@ TEST_CASE("load modes: each is volume-keeping, zero at the pins and largest at t
             if (m.w[i][at(p)].norm() > m.w[i][at(far)].norm()) far = p;
         }
         if (verbose())
-            std::printf("load mode %zu: max |J w| per cell %.2e per unit amplitude, largest at x = %d, strain %.3f/m\n", i,
-                        worst, c.lat.coords[at(far)].x(), m.strain[static_cast<Index>(i)]);
+            std::printf("load mode %zu: max |J w| per cell %.2e per unit amplitude, largest at x = %d, strain %.3f/m\n",
+                        i, worst, c.lat.coords[at(far)].x(), m.strain[static_cast<Index>(i)]);
         // a unit amplitude moves the free end 1 m while no cell changes by more than 1e-5 of its
         // volume: the polish leaves the central difference's O(ε²) and the projection's 1e-11
         // over ε (measured 1.5e-6 for the axial mode, 1.5e-10 for the bending ones; the
@@ -124,9 +124,10 @@ TEST_CASE("load modes: a pinned jelly bar sags under gravity to the modal closed
     const Index tip = c.lat.pointAt(Vec3i(16, 2, 2));
     const Real sag = rest[at(tip)].y() - body.positions()[at(tip)].y();
     if (verbose())
-        std::printf("cantilever k = %.0f: q_y %.6f (closed form %.6f), tip sag %.4f m, largest point off the mode %.2e m, "
-                    "kinetic energy %.2e J, max cell error %.2e\n",
-                    k, q.y(), qStar.y(), sag, off, last.kineticEnergy, maxErr);
+        std::printf(
+            "cantilever k = %.0f: q_y %.6f (closed form %.6f), tip sag %.4f m, largest point off the mode %.2e m, "
+            "kinetic energy %.2e J, max cell error %.2e\n",
+            k, q.y(), qStar.y(), sag, off, last.kineticEnergy, maxErr);
     CHECK(std::abs(q.y() - qStar.y()) <= 1e-6 * std::abs(qStar.y()));  // 10 s: the damping's e^(-20)
     CHECK(std::abs(q.x()) <= 1e-9 * std::abs(qStar.y()));
     CHECK(sag > 0.9 * std::abs(qStar.y()));  // the tip moves almost the mode's largest displacement
@@ -135,7 +136,8 @@ TEST_CASE("load modes: a pinned jelly bar sags under gravity to the modal closed
     CHECK(maxErr <= 1e-4);
 }
 
-TEST_CASE("load modes: a jelly box held by its bottom face carries its weight without folding", "[dynamics][load][slow]") {
+TEST_CASE("load modes: a jelly box held by its bottom face carries its weight without folding",
+          "[dynamics][load][slow]") {
     const Real k = GENERATE(Real(100), Real(300), Real(1000));
     const Lattice lat = boxLattice(Vec3i(9, 9, 9), 0.05, Vec3(-0.2, 0, -0.2));
     std::vector<unsigned char> pinned(at(lat.size()), 0);
@@ -158,9 +160,10 @@ TEST_CASE("load modes: a jelly box held by its bottom face carries its weight wi
     const Real sag = restPositions(lat)[at(top)].y() - body.positions()[at(top)].y();
     const Real strain = body.loadAmplitude().cwiseAbs().dot(body.loadModes().strain);
     if (verbose())
-        std::printf("box on its bottom face, k = %.0f: top sag %.4f m, mode strain %.3f, kinetic energy %.2e J "
-                    "(peak %.2e), max cell error %.2e\n",
-                    k, sag, strain, lastKe, peak, maxErr);
+        std::printf(
+            "box on its bottom face, k = %.0f: top sag %.4f m, mode strain %.3f, kinetic energy %.2e J "
+            "(peak %.2e), max cell error %.2e\n",
+            k, sag, strain, lastKe, peak, maxErr);
     CHECK(sag > 0);
     CHECK(strain <= body.settings().maxLoadStrain * (1 + 1e-12));
     CHECK(inverted == 0);
@@ -193,8 +196,8 @@ TEST_CASE("load modes: goo held at one end falls at the modal rate until the str
     for (int s = 0; s < 96; ++s) REQUIRE(body.step(g, 1, dt, {}).fault.empty());
     const Real strain = body.loadAmplitude().cwiseAbs().dot(m.strain);
     if (verbose())
-        std::printf("goo cantilever: terminal rate %.4f m/s, %d steps to the strain bound, strain there %.6f\n", a / zeta, n,
-                    strain);
+        std::printf("goo cantilever: terminal rate %.4f m/s, %d steps to the strain bound, strain there %.6f\n",
+                    a / zeta, n, strain);
     CHECK(n >= 5);  // 0.3 / 2.44 per metre = 0.12 m at up to 3.1 m/s
     CHECK(n < 2000);
     CHECK(std::abs(strain - body.settings().maxLoadStrain) <= 1e-9);

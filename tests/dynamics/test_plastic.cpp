@@ -73,16 +73,17 @@ Stretch stretchAndRelease(Real rate, Real yield) {
 
 }  // namespace
 
-TEST_CASE("plasticity: a stretch beyond the yield leaves the excess as a permanent set, within it the body springs back",
-          "[dynamics][plastic]") {
+TEST_CASE(
+    "plasticity: a stretch beyond the yield leaves the excess as a permanent set, within it the body springs back",
+    "[dynamics][plastic]") {
     const Real yield = 0.1;
     // Beyond: the elastic strain is capped at the yield while the stretch grows, so at the peak
     // the rest shape holds peak − yield; released, the memory and damping take the elastic part
     // back to 0 (it overshoots the other way by less than the yield: no reverse yielding).
     const Stretch big = stretchAndRelease(1.5, yield);
     if (verbose())
-        std::printf("stretch: peak %.5f, final %.5f (rest %.5f, elastic %.2e), peak - yield %.5f\n", big.peak, big.final,
-                    big.finalRest, big.finalElastic, big.peak - yield);
+        std::printf("stretch: peak %.5f, final %.5f (rest %.5f, elastic %.2e), peak - yield %.5f\n", big.peak,
+                    big.final, big.finalRest, big.finalElastic, big.peak - yield);
     REQUIRE(big.peak > 2 * yield);
     CHECK(big.yielded);
     CHECK(big.finalElastic < 1e-3);
@@ -135,14 +136,15 @@ TEST_CASE("plasticity: the twist's rest connection yields, a bent-in shape stays
     Real gPlastic, ePlastic, tau;
     run(0.02, gPlastic, ePlastic, tau);
     if (verbose())
-        std::printf("bent bar: elastic max|Γ| %.2e; plastic max|Γ| %.2e, max|Γ - Γp| %.2e (yield of Γ %.2e)\n", gElastic,
-                    gPlastic, ePlastic, tau);
+        std::printf("bent bar: elastic max|Γ| %.2e; plastic max|Γ| %.2e, max|Γ - Γp| %.2e (yield of Γ %.2e)\n",
+                    gElastic, gPlastic, ePlastic, tau);
     CHECK(gElastic < 0.2 * gPlastic);  // it springs back
     CHECK(gPlastic > 2 * tau);         // a bend beyond the yield stayed
     CHECK(ePlastic <= tau * (1 + 1e-9));
 }
 
-TEST_CASE("plasticity: a putty ball dropped on the ground keeps a squash and settles, goo spreads on", "[dynamics][plastic][contact][slow]") {
+TEST_CASE("plasticity: a putty ball dropped on the ground keeps a squash and settles, goo spreads on",
+          "[dynamics][plastic][contact][slow]") {
     // The ball of "contact: a goo ball resting on the ground ..." (0.5 m, 20 voxels across,
     // 1.5 m/s onto the ground, 2 substeps at 24 fps, 5 s), as goo, as jelly (k = 300: its
     // resting sag needs an elastic strain of about 0.27) and as putty (k = 300, yield 0.25). The
@@ -186,17 +188,18 @@ TEST_CASE("plasticity: a putty ball dropped on the ground keeps a squash and set
     const Run goo = run(0, 0), jelly = run(k, 0), putty = run(k, yield);
     if (verbose())
         for (const auto& [name, x] : {std::pair{"goo", goo}, std::pair{"jelly", jelly}, std::pair{"putty", putty}})
-            std::printf("%-5s: A_yy %.3f (rest P_yy %.3f), kinetic energy %.2e J at 1 s, %.2e J at 5 s, largest elastic strain "
-                        "%.4f, lowest det F/h^3 %.3f\n",
-                        name, x.squash, x.restSquash, x.energyAt1s, x.energyEnd, x.mostElastic, x.lowest);
-    CHECK(goo.squash < 0.25);                            // goo spreads on (measured 0.201)
-    CHECK(goo.energyEnd > 50 * putty.energyEnd);         // and is still flowing (0.76 J)
-    CHECK(jelly.restSquash == 1);                        // no plasticity: no rest change
-    CHECK(jelly.mostElastic > yield);                    // the load is beyond the putty's yield...
-    CHECK(putty.mostElastic <= yield + 1e-12);           // ...which the putty never passes
-    CHECK(putty.restSquash < 0.97);                      // so its rest shape yielded
-    CHECK(putty.squash < jelly.squash - 0.02);           // and it keeps more of a squash
-    CHECK(putty.squash > goo.squash + 0.4);              // but stops far short of the goo
-    CHECK(putty.energyEnd < 0.02 * putty.energyAt1s);    // settling
+            std::printf(
+                "%-5s: A_yy %.3f (rest P_yy %.3f), kinetic energy %.2e J at 1 s, %.2e J at 5 s, largest elastic strain "
+                "%.4f, lowest det F/h^3 %.3f\n",
+                name, x.squash, x.restSquash, x.energyAt1s, x.energyEnd, x.mostElastic, x.lowest);
+    CHECK(goo.squash < 0.25);                          // goo spreads on (measured 0.201)
+    CHECK(goo.energyEnd > 50 * putty.energyEnd);       // and is still flowing (0.76 J)
+    CHECK(jelly.restSquash == 1);                      // no plasticity: no rest change
+    CHECK(jelly.mostElastic > yield);                  // the load is beyond the putty's yield...
+    CHECK(putty.mostElastic <= yield + 1e-12);         // ...which the putty never passes
+    CHECK(putty.restSquash < 0.97);                    // so its rest shape yielded
+    CHECK(putty.squash < jelly.squash - 0.02);         // and it keeps more of a squash
+    CHECK(putty.squash > goo.squash + 0.4);            // but stops far short of the goo
+    CHECK(putty.energyEnd < 0.02 * putty.energyAt1s);  // settling
     CHECK(putty.lowest > 0.5);
 }

@@ -96,10 +96,11 @@ TEST_CASE("reparametrise: a wound-up goo ball goes onto a fresh lattice with its
     momenta(body, p0, l0, k0);
     momenta(next, p1, l1, k1);
     if (verbose())
-        std::printf("reparametrise: after %d steps, %lld -> %lld points, dilation %.6f, |Γ| %.3f, centre moved %.2e voxel; "
-                    "L %.6f -> %.6f, KE %.6f -> %.6f J\n",
-                    steps, static_cast<long long>(lat.size()), static_cast<long long>(r.lattice.size()), r.dilation,
-                    before.maxGamma, (next.centre() - body.centre()).norm() / kH, l0.y(), l1.y(), k0, k1);
+        std::printf(
+            "reparametrise: after %d steps, %lld -> %lld points, dilation %.6f, |Γ| %.3f, centre moved %.2e voxel; "
+            "L %.6f -> %.6f, KE %.6f -> %.6f J\n",
+            steps, static_cast<long long>(lat.size()), static_cast<long long>(r.lattice.size()), r.dilation,
+            before.maxGamma, (next.centre() - body.centre()).norm() / kH, l0.y(), l1.y(), k0, k1);
     CHECK((p1 - p0).norm() < 1e-10 * p0.norm());
     CHECK((l1 - l0).norm() < 1e-3 * l0.norm());
     CHECK(std::abs(k1 / k0 - 1) < 0.05);

@@ -39,14 +39,16 @@ using test::boxLattice;
 /// point p of the rest positions x0 (connection g0) by eps along axis a (the realisation map's
 /// column; body restored to `start` first).
 const std::vector<Vec3>& realisedColumn(DeformableBody& body, const DeformableBodyState& start, const Lattice& lat,
-                                        const std::vector<Vec3>& x0, const GeometricState& g0, Index p, int a, Real eps) {
+                                        const std::vector<Vec3>& x0, const GeometricState& g0, Index p, int a,
+                                        Real eps) {
     std::vector<Vec3> x = x0;
     x[static_cast<std::size_t>(p)][a] += eps;
     GeometricState g;
     computeGeometricState(lat, x, g, BoundaryStencils::Realisable);
     DeformableBodyState s = start;
     for (std::size_t c = 0; c < 3; ++c)
-        for (std::size_t q = 0; q < static_cast<std::size_t>(lat.size()); ++q) s.deltaGamma[c][q] = g.christoffel[c][q] - g0.christoffel[c][q];
+        for (std::size_t q = 0; q < static_cast<std::size_t>(lat.size()); ++q)
+            s.deltaGamma[c][q] = g.christoffel[c][q] - g0.christoffel[c][q];
     body.restoreState(s);
     REQUIRE(body.predict(ForceField(), 1, 1.0 / 96).fault.empty());
     return body.predictedPositions();
@@ -117,12 +119,12 @@ TEST_CASE("stepper: a linear field gives the closed-form affine motion exp(tK)",
         Eigen::Matrix3d E = (T * K).exp();
         Real err = 0;
         const std::vector<Vec3> rest = restPositions(lat);
-        for (std::size_t p = 0; p < rest.size(); ++p)
-            err = std::max(err, (body.positions()[p] - E * rest[p]).norm());
+        for (std::size_t p = 0; p < rest.size(); ++p) err = std::max(err, (body.positions()[p] - E * rest[p]).norm());
         return err;
     };
     const Real e1 = run(200, 1.0), e2 = run(400, 1.0);
-    if (verbose()) std::printf("linear field: max error %.3g (200 steps), %.3g (400 steps), ratio %.2f\n", e1, e2, e1 / e2);
+    if (verbose())
+        std::printf("linear field: max error %.3g (200 steps), %.3g (400 steps), ratio %.2f\n", e1, e2, e1 / e2);
     CHECK(e2 < 1e-6 * 0.4);  // 1e-6 of the body's radius
     CHECK(e1 / e2 > 3.5);    // second order in dt
 }
@@ -141,7 +143,8 @@ TEST_CASE("stepper: eq 78 holds for a rigidly spinning frame", "[dynamics][stepp
     const PointConnection dg0 = dg;
     Real before[3][3];
     for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) before[a][b] = dg[0](a, b) * dg[0](a, b) + dg[1](a, b) * dg[1](a, b) + dg[2](a, b) * dg[2](a, b);
+        for (int b = 0; b < 3; ++b)
+            before[a][b] = dg[0](a, b) * dg[0](a, b) + dg[1](a, b) * dg[1](a, b) + dg[2](a, b) * dg[2](a, b);
     const Vec3 omega = Vec3(0.3, 1.1, -0.7);  // rad/s
     const Real dt = 1.0 / 96, h = 0.05;
     const Mat3 step = Eigen::AngleAxis<Real>(omega.norm() * dt, omega.normalized()).toRotationMatrix();
@@ -177,8 +180,10 @@ TEST_CASE("stepper: eq 78 holds for a rigidly spinning frame", "[dynamics][stepp
             worst = std::max(worst, std::abs(after - before[a][b]));
         }
     if (verbose())
-        std::printf("eq 78: max change of sum_c dGamma^2 over 10,000 rigid steps %.3g; with the trace-free projection the "
-                    "norm^2 went %.3g -> max %.3g\n", worst, norm0, normMax);
+        std::printf(
+            "eq 78: max change of sum_c dGamma^2 over 10,000 rigid steps %.3g; with the trace-free projection the "
+            "norm^2 went %.3g -> max %.3g\n",
+            worst, norm0, normMax);
     CHECK(worst < 1e-9 * 1e-4);  // relative 1e-9 of the magnitude (1e-4)
     CHECK(normMax <= norm0 * (1 + 1e-12));
     // Without the rotation (the default) a rigid motion leaves δΓ's lattice components as they
@@ -238,9 +243,10 @@ TEST_CASE("stepper: 10000 force-free steps after a strong push stay bounded", "[
     const PushRun g = pushThenCoast(goo, 5, steps);
     const Real bound = g.settled * std::exp(-2 * goo.damping * (steps - 2000) / 240.0);
     if (verbose())
-        std::printf("10k force-free (goo): sum dGamma^2 after the push %.3g, largest after it %.3g, 2000 steps later %.3g, "
-                    "at the end %.3g (bound from step 2000: %.3g), max KE %.3g J, max cell error %.2e\n",
-                    g.peak, g.maxCoast, g.settled, g.last, bound, g.maxKinetic, g.maxErr);
+        std::printf(
+            "10k force-free (goo): sum dGamma^2 after the push %.3g, largest after it %.3g, 2000 steps later %.3g, "
+            "at the end %.3g (bound from step 2000: %.3g), max KE %.3g J, max cell error %.2e\n",
+            g.peak, g.maxCoast, g.settled, g.last, bound, g.maxKinetic, g.maxErr);
     CHECK(g.finite);
     CHECK(g.peak > 1e-3);
     CHECK(g.maxCoast <= g.peak);
@@ -265,7 +271,8 @@ TEST_CASE("stepper: volume is kept cell by cell in a vortex", "[dynamics][steppe
     Real moved = 0;
     const std::vector<Vec3> rest = restPositions(lat);
     for (std::size_t p = 0; p < rest.size(); ++p) moved = std::max(moved, (body.positions()[p] - rest[p]).norm());
-    if (verbose()) std::printf("vortex: max cell error %.2e, max drift %.2e, max displacement %.3f m\n", maxErr, maxDrift, moved);
+    if (verbose())
+        std::printf("vortex: max cell error %.2e, max drift %.2e, max displacement %.3f m\n", maxErr, maxDrift, moved);
     CHECK(moved > 0.05);  // it really moved (a voxel or more)
     // and not only rigidly: the non-affine part is there (the core turns faster than the rim)
     Vec3 c;
@@ -291,8 +298,9 @@ TEST_CASE("stepper: goo dropped on the ground stops on it and spreads, keeping i
         maxErr = std::max(maxErr, r.maxCellVolumeError);
         for (const Vec3& x : body.positions()) minY = std::min(minY, x.y());
     }
-    if (verbose()) std::printf("drop: lowest point %.2e m, centre y %.3f, contacts %lld, max cell error %.2e\n", minY,
-                               body.centre().y(), static_cast<long long>(contacts), maxErr);
+    if (verbose())
+        std::printf("drop: lowest point %.2e m, centre y %.3f, contacts %lld, max cell error %.2e\n", minY,
+                    body.centre().y(), static_cast<long long>(contacts), maxErr);
     CHECK(contacts > 0);
     // Contact points sit on the ground; the volume projection (contact points held) may nudge
     // their neighbours in by up to ~2e-3 voxel (measured 1.8e-3; docs/math.md)
@@ -342,7 +350,8 @@ TEST_CASE("stepper: a fast landing that puts whole cells inside the ground keeps
 TEST_CASE("stepper: pinned points never move and a torsion field twists a pinned column", "[dynamics][stepper]") {
     const Lattice lat = boxLattice(Vec3i(5, 16, 5), 0.05, Vec3(-0.1, 0, -0.1));
     std::vector<unsigned char> pinned(static_cast<std::size_t>(lat.size()), 0);
-    for (Index p = 0; p < lat.size(); ++p) pinned[static_cast<std::size_t>(p)] = lat.coords[static_cast<std::size_t>(p)].y() == 0;
+    for (Index p = 0; p < lat.size(); ++p)
+        pinned[static_cast<std::size_t>(p)] = lat.coords[static_cast<std::size_t>(p)].y() == 0;
     DeformableBody body(lat, restPositions(lat), DynamicsSettings{}, pinned);
     ForceField f;
     ForceTerm t;
@@ -357,15 +366,18 @@ TEST_CASE("stepper: pinned points never move and a torsion field twists a pinned
     const std::vector<Vec3> rest = restPositions(lat);
     Real pinMove = 0;
     for (Index p = 0; p < lat.size(); ++p)
-        if (pinned[static_cast<std::size_t>(p)]) pinMove = std::max(pinMove, (body.positions()[static_cast<std::size_t>(p)] - rest[static_cast<std::size_t>(p)]).norm());
+        if (pinned[static_cast<std::size_t>(p)])
+            pinMove = std::max(
+                pinMove, (body.positions()[static_cast<std::size_t>(p)] - rest[static_cast<std::size_t>(p)]).norm());
     // the top corner turned about the axis: its angle about y grows with height
     const Index top = lat.pointAt(Vec3i(4, 15, 4)), mid = lat.pointAt(Vec3i(4, 8, 4));
     auto angle = [&](Index p) {
         const Vec3 a = rest[static_cast<std::size_t>(p)], b = body.positions()[static_cast<std::size_t>(p)];
         return std::atan2(a.x() * b.z() - a.z() * b.x(), a.x() * b.x() + a.z() * b.z());
     };
-    if (verbose()) std::printf("torsion: pins moved %.2e, angle mid %.3f rad, top %.3f rad, max cell error %.2e\n", pinMove,
-                               angle(mid), angle(top), maxErr);
+    if (verbose())
+        std::printf("torsion: pins moved %.2e, angle mid %.3f rad, top %.3f rad, max cell error %.2e\n", pinMove,
+                    angle(mid), angle(top), maxErr);
     CHECK(pinMove == 0);
     CHECK(std::abs(angle(top)) > 0.05);
     CHECK(std::abs(angle(top)) > 1.3 * std::abs(angle(mid)));
@@ -392,7 +404,9 @@ TEST_CASE("stepper: the gauge keeps a swirled free body's volume", "[dynamics][s
     Real v = 0, v0 = 0;
     for (Index c = 0; c < body.cells().size(); ++c) {
         std::array<Vec3, 8> x;
-        for (std::size_t k = 0; k < 8; ++k) x[k] = body.predictedPositions()[static_cast<std::size_t>(body.cells().corners[static_cast<std::size_t>(c)][k])];
+        for (std::size_t k = 0; k < 8; ++k)
+            x[k] = body.predictedPositions()[static_cast<std::size_t>(
+                body.cells().corners[static_cast<std::size_t>(c)][k])];
         v += hexVolume(x);
         v0 += body.restVolumes()[static_cast<std::size_t>(c)];
     }
@@ -439,8 +453,9 @@ TEST_CASE("stepper: the reconstruction realises a displacement's connection chan
         lowest = std::min(lowest, ev[i].real());
         largest = std::max(largest, std::abs(ev[i]));
     }
-    if (verbose()) std::printf("realisation map of a 3-voxel ball (%lld points): Re λ >= %.3g, |λ| <= %.6f\n",
-                               static_cast<long long>(n), lowest, largest);
+    if (verbose())
+        std::printf("realisation map of a 3-voxel ball (%lld points): Re λ >= %.3g, |λ| <= %.6f\n",
+                    static_cast<long long>(n), lowest, largest);
     CHECK(lowest > -1e-4);      // measured −9e-8 (the finite differences' round-off)
     CHECK(largest < 1 + 1e-4);  // measured 1.000000
 }
@@ -455,7 +470,8 @@ TEST_CASE("stepper: the frame sweeps let a pinned column's reconstruction realis
     const Lattice lat = boxLattice(Vec3i(4, 6, 4), 0.1, Vec3::Zero());
     const Index n = lat.size();
     std::vector<unsigned char> pinned(static_cast<std::size_t>(n), 0);
-    for (Index p = 0; p < n; ++p) pinned[static_cast<std::size_t>(p)] = lat.coords[static_cast<std::size_t>(p)].y() == 0;
+    for (Index p = 0; p < n; ++p)
+        pinned[static_cast<std::size_t>(p)] = lat.coords[static_cast<std::size_t>(p)].y() == 0;
     const std::vector<Vec3> x0 = restPositions(lat);
     GeometricState g0;
     computeGeometricState(lat, x0, g0, BoundaryStencils::Realisable);
@@ -504,12 +520,13 @@ TEST_CASE("stepper: the frame sweeps let a pinned column's reconstruction realis
     };
     const Figures tree = measure(0), swept = measure(4);
     if (verbose())
-        std::printf("pinned column's realisation map: |λ| <= %.6f (tree's frames %.6f); twist realised %.4f (tree's %.4f)\n",
-                    swept.largest, tree.largest, swept.twistRealised, tree.twistRealised);
-    CHECK(tree.largest > 1.005);          // measured 1.008: the mode that grew
-    CHECK(swept.largest < 1 + 1e-4);      // measured 1.000000
-    CHECK(swept.twistRealised > 0.92);    // measured 0.937
-    CHECK(tree.twistRealised < 0.9);      // measured 0.873
+        std::printf(
+            "pinned column's realisation map: |λ| <= %.6f (tree's frames %.6f); twist realised %.4f (tree's %.4f)\n",
+            swept.largest, tree.largest, swept.twistRealised, tree.twistRealised);
+    CHECK(tree.largest > 1.005);        // measured 1.008: the mode that grew
+    CHECK(swept.largest < 1 + 1e-4);    // measured 1.000000
+    CHECK(swept.twistRealised > 0.92);  // measured 0.937
+    CHECK(tree.twistRealised < 0.9);    // measured 0.873
 }
 
 TEST_CASE("stepper: a free spinning jelly keeps its spin and its energy", "[dynamics][stepper]") {
@@ -536,8 +553,9 @@ TEST_CASE("stepper: a free spinning jelly keeps its spin and its energy", "[dyna
         const Mat3 L = body.flexVelocity() * body.flex().inverse();
         const Vec3 spin(0.5 * (L(2, 1) - L(1, 2)), 0.5 * (L(0, 2) - L(2, 0)), 0.5 * (L(1, 0) - L(0, 1)));
         if (verbose())
-            std::printf("spinning jelly, damping %g: kinetic energy %.6g -> %.6g J in 2 s, spin (%.4f %.4f %.4f) rad/s\n",
-                        damping, ke0, ke, spin.x(), spin.y(), spin.z());
+            std::printf(
+                "spinning jelly, damping %g: kinetic energy %.6g -> %.6g J in 2 s, spin (%.4f %.4f %.4f) rad/s\n",
+                damping, ke0, ke, spin.x(), spin.y(), spin.z());
         CHECK(std::abs(ke / ke0 - 1) < 1e-3);
         CHECK((spin - omega).norm() < 1e-2 * omega.norm());
     }
@@ -564,11 +582,14 @@ TEST_CASE("stepper: viscosity damps the twist rate's lattice modes at the implic
             Real worst = 0, sum0 = 0, sum1 = 0;
             for (Index p = 0; p < box.size(); ++p)
                 for (std::size_t c = 0; c < 3; ++c) {
-                    worst = std::max(worst, (dg[c][static_cast<std::size_t>(p)] - factor * before[c][static_cast<std::size_t>(p)]).norm());
+                    worst = std::max(
+                        worst,
+                        (dg[c][static_cast<std::size_t>(p)] - factor * before[c][static_cast<std::size_t>(p)]).norm());
                     sum0 += before[c][static_cast<std::size_t>(p)].sum();
                     sum1 += dg[c][static_cast<std::size_t>(p)].sum();
                 }
-            INFO("mode " << a << ", alpha " << alpha << ": factor " << factor << ", " << iterations << " CG iterations");
+            INFO("mode " << a << ", alpha " << alpha << ": factor " << factor << ", " << iterations
+                         << " CG iterations");
             CHECK(worst < 1e-7 * factor);
             CHECK(std::abs(sum1 - sum0) < 1e-9);  // Σ δΓ kept (the mode sums to 0, round-off)
         }
@@ -586,7 +607,8 @@ TEST_CASE("stepper: viscosity damps the twist rate's lattice modes at the implic
     }
     Real apart = 0;
     for (Index p = 0; p < ball.size(); ++p)
-        apart = std::max(apart, (a.positions()[static_cast<std::size_t>(p)] - b.positions()[static_cast<std::size_t>(p)]).norm());
+        apart = std::max(
+            apart, (a.positions()[static_cast<std::size_t>(p)] - b.positions()[static_cast<std::size_t>(p)]).norm());
     INFO("largest difference after 1 s of spin: " << apart << " m");
     CHECK(apart < 1e-9);
     CHECK((b.flexVelocity() - a.flexVelocity()).norm() < 1e-9);

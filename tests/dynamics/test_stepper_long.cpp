@@ -107,13 +107,14 @@ TEST_CASE("stepper: a stiff spinning jelly keeps its twist bounded in free fligh
     const Outcome tree = run(0, false, 480);
     const Outcome notes = run(defaults.frameSweeps, true, 104);
     if (verbose())
-        std::printf("spinning jelly k = 1000: sum dGamma^2 after the push %.3g, largest in the 20th second %.3g (%s); "
-                    "on the tree's frames %.3g -> %.3g (%s); with the notes' rotation, 4th second %.3g -> %.3g (%s)\n",
-                    swept.afterPush, swept.lastSecond, swept.fault.c_str(), tree.afterPush, tree.lastSecond,
-                    tree.fault.c_str(), notes.afterPush, notes.lastSecond, notes.fault.c_str());
+        std::printf(
+            "spinning jelly k = 1000: sum dGamma^2 after the push %.3g, largest in the 20th second %.3g (%s); "
+            "on the tree's frames %.3g -> %.3g (%s); with the notes' rotation, 4th second %.3g -> %.3g (%s)\n",
+            swept.afterPush, swept.lastSecond, swept.fault.c_str(), tree.afterPush, tree.lastSecond, tree.fault.c_str(),
+            notes.afterPush, notes.lastSecond, notes.fault.c_str());
     REQUIRE(swept.fault.empty());
     REQUIRE(swept.afterPush > 0);
-    CHECK(swept.lastSecond < 0.01 * swept.afterPush);  // measured 6.4e-8 against 3.7e-5
+    CHECK(swept.lastSecond < 0.01 * swept.afterPush);                       // measured 6.4e-8 against 3.7e-5
     CHECK((!tree.fault.empty() || tree.lastSecond > 10 * tree.afterPush));  // measured 7.2e-3 against 3.7e-5
     REQUIRE(notes.fault.empty());
     CHECK(notes.lastSecond < 0.1 * notes.afterPush);  // measured 1.2e-7 against 3.8e-5
@@ -186,17 +187,19 @@ TEST_CASE("stepper: a jelly under a strong alternating vortex for 1000 frames", 
     const Real axisDistance = std::hypot(body.centre().x(), body.centre().z());
     if (verbose()) std::printf("jelly: centre %.3f m from the vortex axis after 1000 frames\n", axisDistance);
     if (verbose())
-        std::printf("jelly, 1000 frames of an alternating vortex: mean 50-frame peak of KE about the centre %.4g J (first half) / "
-                    "%.4g J (second), of sum dGamma^2 %.3g / %.3g, max cell error %.2e, max |drift| %.2e, "
-                    "inverted %lld\n",
-                    keHalf[0], keHalf[1], dgHalf[0], dgHalf[1], maxErr, maxDrift, static_cast<long long>(inverted));
+        std::printf(
+            "jelly, 1000 frames of an alternating vortex: mean 50-frame peak of KE about the centre %.4g J (first "
+            "half) / "
+            "%.4g J (second), of sum dGamma^2 %.3g / %.3g, max cell error %.2e, max |drift| %.2e, "
+            "inverted %lld\n",
+            keHalf[0], keHalf[1], dgHalf[0], dgHalf[1], maxErr, maxDrift, static_cast<long long>(inverted));
     INFO(fault);
     REQUIRE(fault.empty());
     CHECK(finite);
     CHECK(inverted == 0);
-    CHECK(keHalf[0] > 1);  // the field really drives it (4.6 J about the centre, 30 J with the orbit)
+    CHECK(keHalf[0] > 1);                // the field really drives it (4.6 J about the centre, 30 J with the orbit)
     CHECK(dgHalf[1] > 0.1 * dgHalf[0]);  // and still deforms it at the end
-    CHECK(axisDistance < 1.0);  // still where the vortex is strong (2.5 m/s² at 0.65 m, measured)
+    CHECK(axisDistance < 1.0);           // still where the vortex is strong (2.5 m/s² at 0.65 m, measured)
     // measured (mean window peaks, with the flex keeping its spin): 4.594 →
     // 4.595 J about the centre and 0.0609 → 0.0545 (while the flex lost its spin: 2.93 → 2.41 J;
     // the whole kinetic energy's window peaks, 22.5 → 26.8 J, rise and fall with the orbit).
@@ -210,7 +213,8 @@ TEST_CASE("stepper: a jelly under a strong alternating vortex for 1000 frames", 
     CHECK(maxDrift <= 1e-5);
 }
 
-TEST_CASE("stepper: a vortex over a short time matches the free-particle motion of every point", "[dynamics][stepper]") {
+TEST_CASE("stepper: a vortex over a short time matches the free-particle motion of every point",
+          "[dynamics][stepper]") {
     // Goo has no internal stress, so over a short time every material point should move like a free
     // particle in the field, x'' = F(x) from rest; the truth is integrated per point with RK4 at
     // 1/4000 s. The step splits the motion into body, flex (the force's first moment) and twist
@@ -260,9 +264,10 @@ TEST_CASE("stepper: a vortex over a short time matches the free-particle motion 
     for (int steps : {3, 6, 12, 48}) e.push_back(errorFor(weak, truthWeak, steps));
     const Real floorTwice = errorFor(twice, truthTwice, 48);
     if (verbose())
-        std::printf("vortex vs free particles, s = 0.1, T = %.1f s: rms motion %.4f voxel (non-affine %.4f); rms error "
-                    "%.3e / %.3e / %.3e / %.3e voxel at 3 / 6 / 12 / 48 steps; s = 0.2 at 48 steps: %.3e (ratio %.2f)\n",
-                    T, moved / h, movedNA / h, e[0] / h, e[1] / h, e[2] / h, e[3] / h, floorTwice / h, floorTwice / e[3]);
+        std::printf(
+            "vortex vs free particles, s = 0.1, T = %.1f s: rms motion %.4f voxel (non-affine %.4f); rms error "
+            "%.3e / %.3e / %.3e / %.3e voxel at 3 / 6 / 12 / 48 steps; s = 0.2 at 48 steps: %.3e (ratio %.2f)\n",
+            T, moved / h, movedNA / h, e[0] / h, e[1] / h, e[2] / h, e[3] / h, floorTwice / h, floorTwice / e[3]);
     CHECK(moved > 0.15 * h);
     CHECK(movedNA > 0.1 * moved);  // a real non-affine part (15%), which the flex alone cannot follow
     // first order in δt while the step error dominates

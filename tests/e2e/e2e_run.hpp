@@ -67,7 +67,8 @@ inline std::vector<std::map<std::string, double>> readStatsCsv(const fs::path& p
         std::istringstream r(line);
         std::map<std::string, double> row;
         std::size_t i = 0;
-        for (std::string w; std::getline(r, w, ',') && i < names.size(); ++i) row[names[i]] = std::strtod(w.c_str(), nullptr);
+        for (std::string w; std::getline(r, w, ',') && i < names.size(); ++i)
+            row[names[i]] = std::strtod(w.c_str(), nullptr);
         rows.push_back(row);
     }
     return rows;
@@ -81,6 +82,8 @@ inline std::vector<std::string> snapshot(const fs::path& dir) {
     return names;
 }
 
-inline std::size_t lineCount(const std::string& s) { return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n')); }
+inline std::size_t lineCount(const std::string& s) {
+    return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
+}
 
 }  // namespace dgv::e2e

@@ -78,53 +78,98 @@ void checkCases(const std::string& tempName, const std::vector<BadCase>& cases) 
 
 TEST_CASE("e2e: bad scene files exit 2 with one line and write nothing", "[e2e][badinput]") {
     checkCases("e2e_bad_scene", {
-        {"missing scene file", {}, "render absent.json", {"absent.json", "no such file"}},
-        {"scene path is a folder", {{"dir.json/x", ""}}, "render dir.json", {"dir.json"}},
-        {"empty scene file", {{"s.json", "  \n"}}, "render s.json", {"s.json", "malformed JSON", "the file is empty"}},
-        {"scene that is not JSON", {{"s.json", "{\n  \"frames\": {\"start\": 1,,\n}\n"}}, "render s.json",
-         {"s.json", "malformed JSON", "line 2, column"}},
-        {"truncated JSON", {{"s.json", "{\"objects\": [{\"primitive\": "}}, "render s.json", {"s.json", "malformed JSON", "line 1"}},
-        {"unknown key", {{"s.json", sphereScene(R"(, "frams": {"start": 1})")}}, "render s.json",
-         {"s.json", "frams", "unknown key", "did you mean 'frames'"}},
-        {"unknown nested key", {{"s.json", sphereScene("", R"(, "voxel_sise": 0.1)")}}, "render s.json",
-         {"s.json", "objects[0].voxel_sise", "did you mean 'voxel_size'"}},
-        {"unknown key with a newline in it", {{"s.json", sphereScene(R"(, "fra\nmes": {"start": 1})")}}, "render s.json",
-         {"s.json", "fra\\x0ames", "unknown key"}},
-    });
+                                    {"missing scene file", {}, "render absent.json", {"absent.json", "no such file"}},
+                                    {"scene path is a folder", {{"dir.json/x", ""}}, "render dir.json", {"dir.json"}},
+                                    {"empty scene file",
+                                     {{"s.json", "  \n"}},
+                                     "render s.json",
+                                     {"s.json", "malformed JSON", "the file is empty"}},
+                                    {"scene that is not JSON",
+                                     {{"s.json", "{\n  \"frames\": {\"start\": 1,,\n}\n"}},
+                                     "render s.json",
+                                     {"s.json", "malformed JSON", "line 2, column"}},
+                                    {"truncated JSON",
+                                     {{"s.json", "{\"objects\": [{\"primitive\": "}},
+                                     "render s.json",
+                                     {"s.json", "malformed JSON", "line 1"}},
+                                    {"unknown key",
+                                     {{"s.json", sphereScene(R"(, "frams": {"start": 1})")}},
+                                     "render s.json",
+                                     {"s.json", "frams", "unknown key", "did you mean 'frames'"}},
+                                    {"unknown nested key",
+                                     {{"s.json", sphereScene("", R"(, "voxel_sise": 0.1)")}},
+                                     "render s.json",
+                                     {"s.json", "objects[0].voxel_sise", "did you mean 'voxel_size'"}},
+                                    {"unknown key with a newline in it",
+                                     {{"s.json", sphereScene(R"(, "fra\nmes": {"start": 1})")}},
+                                     "render s.json",
+                                     {"s.json", "fra\\x0ames", "unknown key"}},
+                                });
 }
 
-TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one line", "[e2e][badinput][slow][sanitize]") {
-    checkCases("e2e_bad_values", {
-        {"wrong type", {{"s.json", R"({"frames": {"start": "one", "end": 2}})"}}, "render s.json",
-         {"s.json", "frames.start", "\"one\""}},
-        {"wrong type (objects not an array)", {{"s.json", R"({"objects": {"mesh": "a.obj"}})"}}, "render s.json",
-         {"s.json", "objects"}},
-        {"negative voxel size", {{"s.json", sphereScene("", R"(, "voxel_size": -0.1)")}}, "render s.json",
-         {"s.json", "objects[0].voxel_size", "-0.1"}},
-        {"NaN-like voxel size (null)", {{"s.json", sphereScene("", R"(, "voxel_size": null)")}}, "render s.json",
-         {"s.json", "objects[0].voxel_size", "null"}},
-        {"huge lattice", {{"s.json", sphereScene("", R"(, "voxel_size": 1e-6)")}}, "render s.json",
-         {"s.json", "objects[0].voxel_size"}},
-        {"restitution between objects above 1", {{"s.json", sphereScene(R"(, "collision": {"restitution": 1.5})")}},
-         "render s.json", {"s.json", "collision.restitution", "1.5"}},
-        {"collision.objects not a bool", {{"s.json", sphereScene(R"(, "collision": {"objects": "yes"})")}},
-         "render s.json", {"s.json", "collision.objects"}},
-        {"frames end < start", {{"s.json", R"({"frames": {"start": 5, "end": 2}})"}}, "render s.json",
-         {"s.json", "frames.end", "must be >= start (5)"}},
-        {"substeps 0", {{"s.json", sphereScene(R"(, "substeps": 0)")}}, "render s.json", {"s.json", "substeps", "0"}},
-        {"max_substeps below substeps", {{"s.json", sphereScene(R"(, "substeps": 4, "max_substeps": 2)")}}, "render s.json",
-         {"s.json", "max_substeps", "[4, 1000], got 2"}},
-        {"cfl 0", {{"s.json", sphereScene(R"(, "cfl": 0)")}}, "render s.json", {"s.json", "cfl", "got 0"}},
-        {"resolution 0", {{"s.json", sphereScene("", R"(, "resolution": 0)")}}, "render s.json",
-         {"s.json", "objects[0].resolution", "0"}},
-        {"render width 0", {{"s.json", R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"width": 0}})"}},
-         "render s.json", {"s.json", "render.width", "got 0"}},
-        // A scene name of 300 characters failed only at the first frame's write ("File name too long").
-        {"scene name longer than a file name allows", {{"s.json", sphereScene(R"(, "name": ")" + std::string(300, 'n') + "\"")}},
-         "render s.json", {"s.json", "name", "at most 200 characters", "got 300"}},
-        {"object name longer than a file name allows", {{"s.json", sphereScene("", R"(, "name": ")" + std::string(201, 'o') + "\"")}},
-         "render s.json", {"s.json", "objects[0].name", "at most 200 characters", "got 201"}},
-    });
+TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one line",
+          "[e2e][badinput][slow][sanitize]") {
+    checkCases("e2e_bad_values",
+               {
+                   {"wrong type",
+                    {{"s.json", R"({"frames": {"start": "one", "end": 2}})"}},
+                    "render s.json",
+                    {"s.json", "frames.start", "\"one\""}},
+                   {"wrong type (objects not an array)",
+                    {{"s.json", R"({"objects": {"mesh": "a.obj"}})"}},
+                    "render s.json",
+                    {"s.json", "objects"}},
+                   {"negative voxel size",
+                    {{"s.json", sphereScene("", R"(, "voxel_size": -0.1)")}},
+                    "render s.json",
+                    {"s.json", "objects[0].voxel_size", "-0.1"}},
+                   {"NaN-like voxel size (null)",
+                    {{"s.json", sphereScene("", R"(, "voxel_size": null)")}},
+                    "render s.json",
+                    {"s.json", "objects[0].voxel_size", "null"}},
+                   {"huge lattice",
+                    {{"s.json", sphereScene("", R"(, "voxel_size": 1e-6)")}},
+                    "render s.json",
+                    {"s.json", "objects[0].voxel_size"}},
+                   {"restitution between objects above 1",
+                    {{"s.json", sphereScene(R"(, "collision": {"restitution": 1.5})")}},
+                    "render s.json",
+                    {"s.json", "collision.restitution", "1.5"}},
+                   {"collision.objects not a bool",
+                    {{"s.json", sphereScene(R"(, "collision": {"objects": "yes"})")}},
+                    "render s.json",
+                    {"s.json", "collision.objects"}},
+                   {"frames end < start",
+                    {{"s.json", R"({"frames": {"start": 5, "end": 2}})"}},
+                    "render s.json",
+                    {"s.json", "frames.end", "must be >= start (5)"}},
+                   {"substeps 0",
+                    {{"s.json", sphereScene(R"(, "substeps": 0)")}},
+                    "render s.json",
+                    {"s.json", "substeps", "0"}},
+                   {"max_substeps below substeps",
+                    {{"s.json", sphereScene(R"(, "substeps": 4, "max_substeps": 2)")}},
+                    "render s.json",
+                    {"s.json", "max_substeps", "[4, 1000], got 2"}},
+                   {"cfl 0", {{"s.json", sphereScene(R"(, "cfl": 0)")}}, "render s.json", {"s.json", "cfl", "got 0"}},
+                   {"resolution 0",
+                    {{"s.json", sphereScene("", R"(, "resolution": 0)")}},
+                    "render s.json",
+                    {"s.json", "objects[0].resolution", "0"}},
+                   {"render width 0",
+                    {{"s.json", R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"width": 0}})"}},
+                    "render s.json",
+                    {"s.json", "render.width", "got 0"}},
+                   // A scene name of 300 characters failed only at the first frame's write ("File name too long").
+                   {"scene name longer than a file name allows",
+                    {{"s.json", sphereScene(R"(, "name": ")" + std::string(300, 'n') + "\"")}},
+                    "render s.json",
+                    {"s.json", "name", "at most 200 characters", "got 300"}},
+                   {"object name longer than a file name allows",
+                    {{"s.json", sphereScene("", R"(, "name": ")" + std::string(201, 'o') + "\"")}},
+                    "render s.json",
+                    {"s.json", "objects[0].name", "at most 200 characters", "got 201"}},
+               });
 }
 
 TEST_CASE("e2e: objects that start inside each other exit 2 naming both, and write nothing", "[e2e][badinput][slow]") {
@@ -135,16 +180,23 @@ TEST_CASE("e2e: objects that start inside each other exit 2 naming both, and wri
           "objects": [{"name": "left", "primitive": {"type": "sphere", "radius": 0.3}, "resolution": 12,
                        "material": {"stiffness": 300}, "velocity": [1, 0, 0]},
                       {"name": "right", "primitive": {"type": "sphere", "radius": 0.3}, "resolution": 12,
-                       "material": {"stiffness": 300}, "transform": {"translate": [)" + std::to_string(apart) + R"(, 0, 0]}}],
+                       "material": {"stiffness": 300}, "transform": {"translate": [)" +
+               std::to_string(apart) + R"(, 0, 0]}}],
           "render": {"width": 32, "height": 32, "supersample": 1}})";
     };
-    checkCases("e2e_bad_overlap", {
-        // -q: the objects are built (and described on stderr) before the overlap can be measured
-        {"overlapping start (render)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "-q render s.json",
-         {"s.json", "objects[1].transform", "'left' and 'right' start inside each other", "move them apart"}},
-        {"overlapping start (simulate)", {{"s.json", pair(0.4, R"({"objects": true})")}}, "-q simulate s.json",
-         {"s.json", "'left' and 'right' start inside each other"}},
-    });
+    checkCases(
+        "e2e_bad_overlap",
+        {
+            // -q: the objects are built (and described on stderr) before the overlap can be measured
+            {"overlapping start (render)",
+             {{"s.json", pair(0.4, R"({"objects": true})")}},
+             "-q render s.json",
+             {"s.json", "objects[1].transform", "'left' and 'right' start inside each other", "move them apart"}},
+            {"overlapping start (simulate)",
+             {{"s.json", pair(0.4, R"({"objects": true})")}},
+             "-q simulate s.json",
+             {"s.json", "'left' and 'right' start inside each other"}},
+        });
     // Apart, or not colliding with each other, the same objects run.
     test::TempDir dir("e2e_overlap_ok");
     std::ofstream(dir.path() / "apart.json") << pair(0.7, R"({"objects": true})");
@@ -158,56 +210,91 @@ TEST_CASE("e2e: objects that start inside each other exit 2 naming both, and wri
 
 TEST_CASE("e2e: bad meshes exit 2 with one line and write nothing", "[e2e][badinput][slow][sanitize]") {
     const std::string offBadIndex = "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 7\n";
-    checkCases("e2e_bad_mesh", {
-        {"missing mesh file", {{"s.json", meshScene("missing.obj")}}, "render s.json",
-         {"s.json", "objects[0].mesh", "missing.obj"}},
-        {"missing mesh file (info)", {}, "info missing.obj", {"missing.obj", "file not found"}},
-        {"a scene file given to info", {{"s.json", meshScene("m.obj")}}, "info s.json",
-         {"s.json", "is a scene file", "'dgv info' reads a mesh"}},
-        {"mesh path is a folder (info)", {{"d.obj/x", ""}}, "info d.obj", {"d.obj", "directory"}},
-        {"random bytes as .obj", {{"s.json", meshScene("noise.obj")}, {"noise.obj", noise(2048, 1)}}, "render s.json",
-         {"noise.obj"}},
-        {"random bytes as .ply", {{"noise.ply", noise(2048, 2)}}, "info noise.ply", {"noise.ply"}},
-        {"random bytes as .stl", {{"noise.stl", noise(2048, 3)}}, "info noise.stl", {"noise.stl"}},
-        {"random bytes as .off", {{"noise.off", noise(2048, 4)}}, "info noise.off", {"noise.off"}},
-        {"empty mesh file", {{"s.json", meshScene("empty.obj")}, {"empty.obj", ""}}, "render s.json",
-         {"empty.obj", "the file is empty"}},
-        {"mesh without faces", {{"points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"}}, "info points.obj",
-         {"points.obj", "no triangles"}},
-        {"mesh with NaN vertices", {{"s.json", meshScene("nan.obj")}, {"nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"}},
-         "render s.json", {"nan.obj", "vertex 1"}},
-        {"mesh with infinite vertices", {{"inf.obj", "v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n"}}, "info inf.obj",
-         {"inf.obj", "vertex 2"}},
-        {"degenerate triangles only", {{"flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"}}, "info flat.obj",
-         {"flat.obj", "no triangles"}},
-        {"OFF with a bad face index", {{"s.json", meshScene("bad.off")}, {"bad.off", offBadIndex}}, "render s.json",
-         {"bad.off", "line 7", "face vertex index '7'"}},
-        {"OFF with a bad face index (info)", {{"bad.off", offBadIndex}}, "info bad.off",
-         {"bad.off", "line 7", "face vertex index '7'"}},
-        // A single triangle voxelised as an open mesh became a sheet one voxel thick, and its
-        // dynamics went non-finite at frame 2.
-        {"a single triangle as an object", {{"s.json", meshScene("tri.obj")}, {"tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}},
-         "render s.json", {"s.json", "objects[0]", "is flat (its size along z is 0)", "give it a thickness"}},
-    });
+    checkCases("e2e_bad_mesh",
+               {
+                   {"missing mesh file",
+                    {{"s.json", meshScene("missing.obj")}},
+                    "render s.json",
+                    {"s.json", "objects[0].mesh", "missing.obj"}},
+                   {"missing mesh file (info)", {}, "info missing.obj", {"missing.obj", "file not found"}},
+                   {"a scene file given to info",
+                    {{"s.json", meshScene("m.obj")}},
+                    "info s.json",
+                    {"s.json", "is a scene file", "'dgv info' reads a mesh"}},
+                   {"mesh path is a folder (info)", {{"d.obj/x", ""}}, "info d.obj", {"d.obj", "directory"}},
+                   {"random bytes as .obj",
+                    {{"s.json", meshScene("noise.obj")}, {"noise.obj", noise(2048, 1)}},
+                    "render s.json",
+                    {"noise.obj"}},
+                   {"random bytes as .ply", {{"noise.ply", noise(2048, 2)}}, "info noise.ply", {"noise.ply"}},
+                   {"random bytes as .stl", {{"noise.stl", noise(2048, 3)}}, "info noise.stl", {"noise.stl"}},
+                   {"random bytes as .off", {{"noise.off", noise(2048, 4)}}, "info noise.off", {"noise.off"}},
+                   {"empty mesh file",
+                    {{"s.json", meshScene("empty.obj")}, {"empty.obj", ""}},
+                    "render s.json",
+                    {"empty.obj", "the file is empty"}},
+                   {"mesh without faces",
+                    {{"points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"}},
+                    "info points.obj",
+                    {"points.obj", "no triangles"}},
+                   {"mesh with NaN vertices",
+                    {{"s.json", meshScene("nan.obj")}, {"nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"}},
+                    "render s.json",
+                    {"nan.obj", "vertex 1"}},
+                   {"mesh with infinite vertices",
+                    {{"inf.obj", "v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n"}},
+                    "info inf.obj",
+                    {"inf.obj", "vertex 2"}},
+                   {"degenerate triangles only",
+                    {{"flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"}},
+                    "info flat.obj",
+                    {"flat.obj", "no triangles"}},
+                   {"OFF with a bad face index",
+                    {{"s.json", meshScene("bad.off")}, {"bad.off", offBadIndex}},
+                    "render s.json",
+                    {"bad.off", "line 7", "face vertex index '7'"}},
+                   {"OFF with a bad face index (info)",
+                    {{"bad.off", offBadIndex}},
+                    "info bad.off",
+                    {"bad.off", "line 7", "face vertex index '7'"}},
+                   // A single triangle voxelised as an open mesh became a sheet one voxel thick, and its
+                   // dynamics went non-finite at frame 2.
+                   {"a single triangle as an object",
+                    {{"s.json", meshScene("tri.obj")}, {"tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}},
+                    "render s.json",
+                    {"s.json", "objects[0]", "is flat (its size along z is 0)", "give it a thickness"}},
+               });
 }
 
 TEST_CASE("e2e: bad curve files for gln exit 2 with one line naming the line", "[e2e][badinput]") {
-    checkCases("e2e_bad_curve", {
-        {"missing curve file", {{"a.txt", kRing}}, "gln a.txt absent.txt", {"absent.txt", "no such file"}},
-        {"curve path is a folder", {{"a.txt", kRing}, {"d.txt/x", ""}}, "gln a.txt d.txt", {"d.txt", "folder"}},
-        {"fewer than 3 vertices", {{"a.txt", kRing}, {"b.txt", "# two\n0 0 0\n1 0 0\n"}}, "gln a.txt b.txt",
-         {"b.txt", "at least 3 vertices, found 2"}},
-        {"empty curve file", {{"a.txt", kRing}, {"b.txt", ""}}, "gln a.txt b.txt", {"b.txt", "found 0"}},
-        {"NaN coordinate", {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 nan 0\n0 1 0\n"}}, "gln a.txt b.txt",
-         {"b.txt", "line 2", "not a finite number"}},
-        {"infinite coordinate", {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 0 0\n0 1 1e999\n"}}, "gln a.txt b.txt",
-         {"b.txt", "line 3", "not a finite number"}},
-        {"unparsable line", {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 0 0\n1 x 0\n0 1 0\n"}}, "gln a.txt b.txt",
-         {"b.txt", "line 3", "expected three numbers"}},
-        {"two numbers on a line", {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 0 0\n# c\n1 1\n"}}, "gln a.txt b.txt",
-         {"b.txt", "line 4", "got 2"}},
-        {"first curve bad too", {{"a.txt", "1 2 3\n"}, {"b.txt", kRing}}, "gln a.txt b.txt", {"a.txt", "found 1"}},
-    });
+    checkCases(
+        "e2e_bad_curve",
+        {
+            {"missing curve file", {{"a.txt", kRing}}, "gln a.txt absent.txt", {"absent.txt", "no such file"}},
+            {"curve path is a folder", {{"a.txt", kRing}, {"d.txt/x", ""}}, "gln a.txt d.txt", {"d.txt", "folder"}},
+            {"fewer than 3 vertices",
+             {{"a.txt", kRing}, {"b.txt", "# two\n0 0 0\n1 0 0\n"}},
+             "gln a.txt b.txt",
+             {"b.txt", "at least 3 vertices, found 2"}},
+            {"empty curve file", {{"a.txt", kRing}, {"b.txt", ""}}, "gln a.txt b.txt", {"b.txt", "found 0"}},
+            {"NaN coordinate",
+             {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 nan 0\n0 1 0\n"}},
+             "gln a.txt b.txt",
+             {"b.txt", "line 2", "not a finite number"}},
+            {"infinite coordinate",
+             {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 0 0\n0 1 1e999\n"}},
+             "gln a.txt b.txt",
+             {"b.txt", "line 3", "not a finite number"}},
+            {"unparsable line",
+             {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 0 0\n1 x 0\n0 1 0\n"}},
+             "gln a.txt b.txt",
+             {"b.txt", "line 3", "expected three numbers"}},
+            {"two numbers on a line",
+             {{"a.txt", kRing}, {"b.txt", "0 0 0\n1 0 0\n# c\n1 1\n"}},
+             "gln a.txt b.txt",
+             {"b.txt", "line 4", "got 2"}},
+            {"first curve bad too", {{"a.txt", "1 2 3\n"}, {"b.txt", kRing}}, "gln a.txt b.txt", {"a.txt", "found 1"}},
+        });
 }
 
 TEST_CASE("e2e: imgdiff on a missing or non-PNG file exits 2 with one line", "[e2e][badinput]") {
@@ -218,41 +305,73 @@ TEST_CASE("e2e: imgdiff on a missing or non-PNG file exits 2 with one line", "[e
     for (int c = 0; c < 3; ++c) light.pixel(0, 0)[c] = 65535;
     const std::vector<unsigned char> lightEncoded = encodePng(light);
     const std::string white(lightEncoded.begin(), lightEncoded.end());
-    checkCases("e2e_bad_imgdiff", {
-        {"imgdiff: missing reference", {{"b.png", png}}, "imgdiff absent.png b.png", {"absent.png", "No such file"}},
-        {"imgdiff: missing candidate", {{"a.png", png}}, "imgdiff a.png absent.png --diff-out d", {"absent.png"}},
-        {"imgdiff: not a PNG", {{"a.png", png}, {"text.png", "hello, not a picture\n"}}, "imgdiff a.png text.png --diff-out d",
-         {"text.png", "not a PNG file"}},
-        {"imgdiff: truncated PNG", {{"a.png", png}, {"cut.png", png.substr(0, 40)}}, "imgdiff a.png cut.png --diff-out d",
-         {"cut.png", "cannot read PNG"}},
-        // It exited 1, imgdiff's "the images differ", with "cannot create folder".
-        {"imgdiff: --diff-out is a file", {{"a.png", png}, {"w.png", white}, {"taken", ""}}, "imgdiff a.png w.png --diff-out taken",
-         {"--diff-out", "taken: not a folder"}},
-    });
+    checkCases(
+        "e2e_bad_imgdiff",
+        {
+            {"imgdiff: missing reference",
+             {{"b.png", png}},
+             "imgdiff absent.png b.png",
+             {"absent.png", "No such file"}},
+            {"imgdiff: missing candidate", {{"a.png", png}}, "imgdiff a.png absent.png --diff-out d", {"absent.png"}},
+            {"imgdiff: not a PNG",
+             {{"a.png", png}, {"text.png", "hello, not a picture\n"}},
+             "imgdiff a.png text.png --diff-out d",
+             {"text.png", "not a PNG file"}},
+            {"imgdiff: truncated PNG",
+             {{"a.png", png}, {"cut.png", png.substr(0, 40)}},
+             "imgdiff a.png cut.png --diff-out d",
+             {"cut.png", "cannot read PNG"}},
+            // It exited 1, imgdiff's "the images differ", with "cannot create folder".
+            {"imgdiff: --diff-out is a file",
+             {{"a.png", png}, {"w.png", white}, {"taken", ""}},
+             "imgdiff a.png w.png --diff-out taken",
+             {"--diff-out", "taken: not a folder"}},
+        });
 }
 
 TEST_CASE("e2e: bad command-line options exit 2 with one line and write nothing", "[e2e][badinput][slow]") {
     const std::string scene = sphereScene("");
     const std::string s = "s.json";
-    checkCases("e2e_bad_cli", {
-        {"--frames B < A", {{s, scene}}, "render s.json --frames 5-2 --out o", {"--frames", "empty (B < A)"}},
-        {"--frames not a range", {{s, scene}}, "render s.json --frames 1-x --out o", {"--frames", "expected A-B or N"}},
-        {"--frames outside the scene", {{s, scene}}, "render s.json --frames 1-9 --out o", {"--frames", "outside the scene's range 1-2"}},
-        {"--resolution 0x0", {{s, scene}}, "render s.json --resolution 0x0 --out o", {"--resolution", "\"0x0\""}},
-        {"--resolution without x", {{s, scene}}, "render s.json --resolution 640 --out o", {"--resolution", "expected WxH"}},
-        {"--width out of range", {{s, scene}}, "render s.json --width 0 --out o", {"--width"}},
-        {"unknown option", {{s, scene}}, "render s.json --bogus --out o", {"--bogus"}},
-        {"unknown subcommand", {}, "frobnicate", {"frobnicate"}},
-        {"missing argument", {}, "render", {"scene"}},
-        {"--threads negative", {{s, scene}}, "--threads -1 render s.json --out o", {"--threads"}},
-        {"gln --method unknown", {{"a.txt", kRing}}, "gln a.txt a.txt --method magic", {"--method", "magic"}},
-        {"info --voxel-size negative", {{"a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}}, "info a.obj --voxel-size -1",
-         {"--voxel-size"}},
-        {"--out is a file", {{s, scene}, {"taken", "a file\n"}}, "render s.json --out taken", {"taken", "not a folder"}},
-        {"--out below a file", {{s, scene}, {"taken", "a file\n"}}, "render s.json --out taken/frames", {"taken", "not a folder"}},
-        {"scene output.dir is a file", {{s, sphereScene(R"(, "output": {"dir": "taken"})")}, {"taken", "x"}}, "render s.json",
-         {"s.json", "output.dir", "not a folder"}},
-    });
+    checkCases(
+        "e2e_bad_cli",
+        {
+            {"--frames B < A", {{s, scene}}, "render s.json --frames 5-2 --out o", {"--frames", "empty (B < A)"}},
+            {"--frames not a range",
+             {{s, scene}},
+             "render s.json --frames 1-x --out o",
+             {"--frames", "expected A-B or N"}},
+            {"--frames outside the scene",
+             {{s, scene}},
+             "render s.json --frames 1-9 --out o",
+             {"--frames", "outside the scene's range 1-2"}},
+            {"--resolution 0x0", {{s, scene}}, "render s.json --resolution 0x0 --out o", {"--resolution", "\"0x0\""}},
+            {"--resolution without x",
+             {{s, scene}},
+             "render s.json --resolution 640 --out o",
+             {"--resolution", "expected WxH"}},
+            {"--width out of range", {{s, scene}}, "render s.json --width 0 --out o", {"--width"}},
+            {"unknown option", {{s, scene}}, "render s.json --bogus --out o", {"--bogus"}},
+            {"unknown subcommand", {}, "frobnicate", {"frobnicate"}},
+            {"missing argument", {}, "render", {"scene"}},
+            {"--threads negative", {{s, scene}}, "--threads -1 render s.json --out o", {"--threads"}},
+            {"gln --method unknown", {{"a.txt", kRing}}, "gln a.txt a.txt --method magic", {"--method", "magic"}},
+            {"info --voxel-size negative",
+             {{"a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}},
+             "info a.obj --voxel-size -1",
+             {"--voxel-size"}},
+            {"--out is a file",
+             {{s, scene}, {"taken", "a file\n"}},
+             "render s.json --out taken",
+             {"taken", "not a folder"}},
+            {"--out below a file",
+             {{s, scene}, {"taken", "a file\n"}},
+             "render s.json --out taken/frames",
+             {"taken", "not a folder"}},
+            {"scene output.dir is a file",
+             {{s, sphereScene(R"(, "output": {"dir": "taken"})")}, {"taken", "x"}},
+             "render s.json",
+             {"s.json", "output.dir", "not a folder"}},
+        });
 }
 
 TEST_CASE("e2e: a scene path that is a pipe or a device exits 2 with one line instead of blocking", "[e2e][badinput]") {
@@ -271,7 +390,8 @@ TEST_CASE("e2e: a scene path that is a pipe or a device exits 2 with one line in
     }
 }
 
-TEST_CASE("e2e: an output folder that is a dangling symbolic link exits 2 naming the link's target", "[e2e][badinput]") {
+TEST_CASE("e2e: an output folder that is a dangling symbolic link exits 2 naming the link's target",
+          "[e2e][badinput]") {
     // Making the folder failed after the setup, with only "File exists".
     test::TempDir dir("e2e_bad_out_link");
     std::ofstream(dir.path() / "s.json") << sphereScene("");

@@ -28,16 +28,19 @@ constexpr int kFrames = 8;
 /// checkpoints), `vdb` turns the VDB cache on.
 fs::path writeDropScene(const fs::path& dir, bool vdb, double gravity = 9.81) {
     const fs::path scene = dir / "drop.json";
-    std::ofstream(scene) << R"({"name": "drop", "frames": {"start": 1, "end": )" << kFrames << R"(, "fps": 24}, "substeps": 2,
+    std::ofstream(scene) << R"({"name": "drop", "frames": {"start": 1, "end": )" << kFrames
+                         << R"(, "fps": 24}, "substeps": 2,
   "objects": [{"name": "cube", "primitive": {"type": "box", "size": [0.4, 0.4, 0.4]},
                "transform": {"translate": [0, 0.29, 0], "rotate": [0, 0, 12]}, "resolution": 6,
                "color": [0.8, 0.3, 0.2], "material": {"damping": 1}, "spin": [0, 90, 0]}],
-  "forces": [{"type": "gravity", "strength": )" << gravity << R"(},
+  "forces": [{"type": "gravity", "strength": )"
+                         << gravity << R"(},
              {"type": "vortex", "position": [0.3, 0, 0], "axis": [0, 1, 0], "radius": 0.5, "strength": 3}],
   "colliders": [{"type": "ground", "height": 0, "friction": 0.5}],
   "camera": {"type": "look_at", "eye": [1.2, 0.8, 1.6], "target": [0, 0.2, 0], "fov": 40},
   "render": {"width": 64, "height": 48, "supersample": 1},
-  "output": {"vdb": )" << (vdb ? "true" : "false") << "}}\n";
+  "output": {"vdb": )" << (vdb ? "true" : "false")
+                         << "}}\n";
     return scene;
 }
 
@@ -59,7 +62,8 @@ std::string statsWithoutTime(const fs::path& file) {
         std::size_t a = 0;
         for (int k = 0; k < 9 && a != std::string::npos; ++k) a = line.find(',', a + (k > 0 ? 1 : 0));
         const std::size_t b = a == std::string::npos ? a : line.find(',', a + 1);
-        out += (a == std::string::npos ? line : line.substr(0, a) + (b == std::string::npos ? "" : line.substr(b))) + "\n";
+        out +=
+            (a == std::string::npos ? line : line.substr(0, a) + (b == std::string::npos ? "" : line.substr(b))) + "\n";
     }
     return out;
 }
@@ -108,8 +112,9 @@ bool sameVdbGrids(const fs::path& a, const fs::path& b) {
         const auto& y = (*gb)[i];
         if (x->getName() != y->getName() || x->valueType() != y->valueType() || x->transform() != y->transform())
             return false;
-        if (static_cast<const openvdb::MetaMap&>(*x).str() != static_cast<const openvdb::MetaMap&>(*y).str()) return false;
-        const bool same = x->isType<openvdb::FloatGrid>()  ? sameValues<openvdb::FloatGrid>(x, y)
+        if (static_cast<const openvdb::MetaMap&>(*x).str() != static_cast<const openvdb::MetaMap&>(*y).str())
+            return false;
+        const bool same = x->isType<openvdb::FloatGrid>()   ? sameValues<openvdb::FloatGrid>(x, y)
                           : x->isType<openvdb::Vec3SGrid>() ? sameValues<openvdb::Vec3SGrid>(x, y)
                                                             : false;
         if (!same) return false;
@@ -183,7 +188,8 @@ TEST_CASE("e2e: a moving scene's run cut after frame 4 resumes from its state ch
     INFO("stderr: " << r.err);
     REQUIRE(r.exitCode == 0);
     CHECK_THAT(r.err, Catch::Contains("resume: kept 4 complete frames, rendered 4"));
-    CHECK_THAT(r.err, Catch::Contains("warning: ignored 1 state checkpoint (" + (part / state(5)).string() + ": truncated"));
+    CHECK_THAT(r.err,
+               Catch::Contains("warning: ignored 1 state checkpoint (" + (part / state(5)).string() + ": truncated"));
     CHECK_THAT(r.err, Catch::Contains("resuming the simulation from frame 4 (" + (part / state(4)).string() + ")"));
     checkSameOutputs(part, full, true, true);
     // The rows of the restored frames are the stopped run's own (its step_ms included).
@@ -199,7 +205,9 @@ TEST_CASE("e2e: a moving scene's render killed by SIGKILL resumes to the same by
     // a temporary being written may stay behind (a hidden name; never mistaken for a frame).
     const std::string killer = "( " + quote(DGV_EXE) +
                                " -q render drop.json --out part & pid=$!; n=0; "
-                               "while [ ! -e part/" + state(3) + " ] && [ $n -lt 600 ]; do sleep 0.02; n=$((n+1)); done; "
+                               "while [ ! -e part/" +
+                               state(3) +
+                               " ] && [ $n -lt 600 ]; do sleep 0.02; n=$((n+1)); done; "
                                "kill -KILL $pid; wait $pid; echo $? > killed.rc ) 2> killed.err; true;";
     REQUIRE(runDgvIn(dir.path(), "--version", killer).exitCode == 0);
     const int killedRc = std::stoi(readAll(dir.path() / "killed.rc"));
@@ -226,7 +234,9 @@ TEST_CASE("e2e: simulate --resume after SIGKILL gives the same stats.csv and VDB
     REQUIRE(runDgvIn(dir.path(), "-q simulate drop.json --out full").exitCode == 0);
     const std::string killer = "( " + quote(DGV_EXE) +
                                " -q simulate drop.json --out part & pid=$!; n=0; "
-                               "while [ ! -e part/" + state(2) + " ] && [ $n -lt 600 ]; do sleep 0.01; n=$((n+1)); done; "
+                               "while [ ! -e part/" +
+                               state(2) +
+                               " ] && [ $n -lt 600 ]; do sleep 0.01; n=$((n+1)); done; "
                                "kill -KILL $pid; wait $pid; echo $? > killed.rc ) 2> killed.err; true;";
     REQUIRE(runDgvIn(dir.path(), "--version", killer).exitCode == 0);
     const int killedRc = std::stoi(readAll(dir.path() / "killed.rc"));
@@ -245,7 +255,8 @@ TEST_CASE("e2e: simulate --resume after SIGKILL gives the same stats.csv and VDB
     checkSameOutputs(dir.path() / "part", dir.path() / "full", false, true);
 }
 
-TEST_CASE("e2e: simulate --resume never keeps a truncated, emptied or foreign VDB file", "[e2e][resume][faults][slow]") {
+TEST_CASE("e2e: simulate --resume never keeps a truncated, emptied or foreign VDB file",
+          "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_ckpt_vdb");
     writeDropScene(dir.path(), true);
     REQUIRE(runDgvIn(dir.path(), "-q simulate drop.json --out full").exitCode == 0);
@@ -286,7 +297,8 @@ TEST_CASE("e2e: render --frames A-B of a moving scene starts from the checkpoint
     const Run second = runDgvIn(dir.path(), "--progress log render drop.json --out farm --frames 6-8");
     INFO("stderr: " << second.err);
     REQUIRE(second.exitCode == 0);
-    CHECK_THAT(second.err, Catch::Contains("resuming the simulation from frame 5 (" + (farm / state(5)).string() + ")"));
+    CHECK_THAT(second.err,
+               Catch::Contains("resuming the simulation from frame 5 (" + (farm / state(5)).string() + ")"));
     checkSameOutputs(farm, dir.path() / "full", true, false);
     // Without checkpoints the same range simulates from frame 1: the same frames.
     const Run plain = runDgvIn(dir.path(), "--progress log render drop.json --out plain --frames 6-8");

@@ -53,7 +53,8 @@ double changedShare(const Image& a, const Image& b, int contrast) {
     for (int y = 0; y < a.height; ++y)
         for (int x = 0; x < a.width; ++x) {
             int d = 0;
-            for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(int(to8bit(a.pixel(x, y)[c])) - int(to8bit(b.pixel(x, y)[c]))));
+            for (int c = 0; c < 3; ++c)
+                d = std::max(d, std::abs(int(to8bit(a.pixel(x, y)[c])) - int(to8bit(b.pixel(x, y)[c]))));
             if (d > contrast) ++changed;
         }
     return double(changed) / (double(a.width) * a.height);
@@ -61,10 +62,11 @@ double changedShare(const Image& a, const Image& b, int contrast) {
 
 }  // namespace
 
-TEST_CASE("e2e: the contact highlight shows from every shipped contact scene's own camera", "[e2e][render][contact][slow]") {
+TEST_CASE("e2e: the contact highlight shows from every shipped contact scene's own camera",
+          "[e2e][render][contact][slow]") {
     // Each scene at a frame in contact (measured: 0.65, 0.22, 0.37, 0.50, 0.28 and 0.28 %).
     const std::pair<const char*, int> cases[] = {{"contact_ball", 3}, {"levelset_drop", 3}, {"jelly_drop", 6},
-                                                 {"ring_drop", 6},    {"blobs_collide", 7},  {"blobs_knock", 4}};
+                                                 {"ring_drop", 6},    {"blobs_collide", 7}, {"blobs_knock", 4}};
     for (const auto& [name, frame] : cases) {
         DYNAMIC_SECTION(name << " frame " << frame) {
             test::TempDir dir(std::string("e2e_probe_") + name);

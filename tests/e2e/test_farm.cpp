@@ -25,7 +25,8 @@ fs::path writeScene(const fs::path& dir, int frames, bool moving = true) {
     std::ofstream(scene) << R"({"name": "shot", "frames": {"start": 1, "end": )" << frames << R"(, "fps": 24},
   "objects": [{"name": "cube", "primitive": {"type": "box", "size": [0.4, 0.4, 0.4]},
                "transform": {"translate": [0, 0.29, 0], "rotate": [0, 0, 12]}, "resolution": 6}],
-  "forces": [)" << (moving ? R"({"type": "gravity", "strength": 9.81})" : "") << R"(],
+  "forces": [)" << (moving ? R"({"type": "gravity", "strength": 9.81})" : "")
+                         << R"(],
   "colliders": [{"type": "ground", "height": 0}],
   "camera": {"type": "look_at", "eye": [1.2, 0.8, 1.6], "target": [0, 0.2, 0], "fov": 40},
   "render": {"width": 32, "height": 24, "supersample": 1}}
@@ -37,8 +38,8 @@ fs::path writeScene(const fs::path& dir, int frames, bool moving = true) {
 std::string fakeSbatch(const fs::path& dir) {
     fs::create_directories(dir / "bin");
     const fs::path bin = dir / "bin" / "sbatch";
-    std::ofstream(bin) << "#!/bin/sh\necho \"$*\" >> " << quote(dir / "sbatch.log")
-                       << "\nn=$(wc -l < " << quote(dir / "sbatch.log") << ")\necho $((100 + n))\n";
+    std::ofstream(bin) << "#!/bin/sh\necho \"$*\" >> " << quote(dir / "sbatch.log") << "\nn=$(wc -l < "
+                       << quote(dir / "sbatch.log") << ")\necho $((100 + n))\n";
     chmod(bin.c_str(), 0755);
     return "PATH=" + quote(dir / "bin") + ":\"$PATH\";";
 }
@@ -114,8 +115,10 @@ TEST_CASE("farm: submit hands sbatch the dependency, status reads the folder, re
     REQUIRE(s.exitCode == 0);
     CHECK(s.out == "simulate 101\nrender 102 (array 0-2, 2 frames each)\ncheck 103\n");
     const std::string log = readAll(dir.path() / "sbatch.log");
-    CHECK_THAT(log, Catch::Contains("--parsable --dependency=afterok:101 " + (dir.path() / "out/farm/render.sbatch").string()));
-    CHECK_THAT(log, Catch::Contains("--parsable --dependency=afterok:102 " + (dir.path() / "out/farm/check.sbatch").string()));
+    CHECK_THAT(log, Catch::Contains("--parsable --dependency=afterok:101 " +
+                                    (dir.path() / "out/farm/render.sbatch").string()));
+    CHECK_THAT(
+        log, Catch::Contains("--parsable --dependency=afterok:102 " + (dir.path() / "out/farm/check.sbatch").string()));
 
     // What the jobs would do: the simulation, then tasks 0 and 2 (frames 1-2 and 5-6).
     REQUIRE(runDgvIn(dir.path(), "-q simulate shot.json --out out").exitCode == 0);

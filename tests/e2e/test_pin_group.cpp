@@ -68,7 +68,8 @@ TEST_CASE("pin: a vertex group holds the material points that carry its vertices
     SceneDesc scene = parseScene(sceneWith("base"), dir.path() / "s.json");
     REQUIRE(scene.objects[0].pin.kind == PinDesc::Kind::Group);
     CHECK(scene.objects[0].pin.group == "base");
-    scene.objects[0].pin.groupVertices = {Vec3(-0.2, 0, -0.2), Vec3(0.2, 0, -0.2), Vec3(0.2, 0, 0.2), Vec3(-0.2, 0, 0.2)};
+    scene.objects[0].pin.groupVertices = {Vec3(-0.2, 0, -0.2), Vec3(0.2, 0, -0.2), Vec3(0.2, 0, 0.2),
+                                          Vec3(-0.2, 0, 0.2)};
     Simulation sim(scene, {&lat});
     REQUIRE(sim.active());
     const DeformableBody& body = *sim.body(0);
@@ -120,8 +121,8 @@ TEST_CASE("e2e: a pin's vertex group is read from the mesh file's groups, an unk
     const Run bad = runDgvIn(dir.path(), "-q simulate bad.json --out o2");
     CHECK(bad.exitCode == 2);
     CHECK(std::count(bad.err.begin(), bad.err.end(), '\n') == 1);
-    CHECK_THAT(bad.err, Catch::Contains("bad.json: objects[0].pin.group:") && Catch::Contains("no mesh or node named 'bottom'") &&
-                            Catch::Contains("'base'"));
+    CHECK_THAT(bad.err, Catch::Contains("bad.json: objects[0].pin.group:") &&
+                            Catch::Contains("no mesh or node named 'bottom'") && Catch::Contains("'base'"));
     CHECK(snapshot(dir.path()) == before);
 
     // a primitive has no vertex groups

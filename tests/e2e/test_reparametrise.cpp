@@ -24,7 +24,8 @@ constexpr int kFrames = 16;
 
 fs::path writeSwirlScene(const fs::path& dir, bool reparametrise = true) {
     const fs::path scene = dir / "swirl.json";
-    std::ofstream(scene) << R"({"name": "swirl", "frames": {"start": 1, "end": )" << kFrames << R"(, "fps": 24}, "substeps": 2,
+    std::ofstream(scene) << R"({"name": "swirl", "frames": {"start": 1, "end": )" << kFrames
+                         << R"(, "fps": 24}, "substeps": 2,
   "objects": [{"name": "goo", "primitive": {"type": "sphere", "radius": 0.3}, "resolution": 10,
                "color": [0.4, 0.7, 0.3], "material": {"preset": "goo", "damping": 1, "reparametrise": )"
                          << (reparametrise ? "true" : "false") << R"(}}],

@@ -27,7 +27,9 @@ fs::path writeScene(const fs::path& dir, int frames, int w = 64, int h = 48) {
   "objects": [{"primitive": {"type": "sphere", "radius": 0.5}, "resolution": 12, "color": [0.8, 0.3, 0.2]},
               {"primitive": {"type": "box", "size": [0.4, 0.4, 0.4]}, "transform": {"translate": [0.7, 0, 0]}, "resolution": 8}],
   "camera": {"type": "turntable", "degrees": 360, "elevation": 20},
-  "render": {"width": )" << w << R"(, "height": )" << h << R"(, "supersample": 1}})" << "\n";
+  "render": {"width": )" << w
+                         << R"(, "height": )" << h << R"(, "supersample": 1}})"
+                         << "\n";
     return scene;
 }
 
@@ -38,7 +40,9 @@ std::string frameName(int frame) {
 }
 
 /// The files in `dir` (names only), sorted; temporaries (".name.tmp-PID") included.
-std::vector<std::string> namesIn(const fs::path& dir) { return fs::exists(dir) ? snapshot(dir) : std::vector<std::string>{}; }
+std::vector<std::string> namesIn(const fs::path& dir) {
+    return fs::exists(dir) ? snapshot(dir) : std::vector<std::string>{};
+}
 
 std::vector<std::string> frameNames(int first, int last) {
     std::vector<std::string> v;
@@ -79,7 +83,8 @@ TEST_CASE("e2e: a full disk fails the frame being written and leaves no partial 
     INFO("stderr: " << r.err);
     CHECK(r.exitCode == 1);
     CHECK(lineCount(r.err) == 1);
-    CHECK_THAT(r.err, Catch::StartsWith("dgv: error: cannot write " + (dir.path() / "out" / frameName(1)).string() + ": "));
+    CHECK_THAT(r.err,
+               Catch::StartsWith("dgv: error: cannot write " + (dir.path() / "out" / frameName(1)).string() + ": "));
     CHECK_THAT(r.err, Catch::Contains("File too large"));
     CHECK(namesIn(dir.path() / "out").empty());  // no frame, no temporary
 }
@@ -159,7 +164,8 @@ TEST_CASE("e2e: --resume never keeps frames of an earlier version of the scene o
     REQUIRE(recoloured.exitCode == 0);
     CHECK_THAT(recoloured.err, Catch::Contains("resume: kept 0 complete frames, rendered 4 (4 of them were on disk"));
     REQUIRE(runDgvIn(dir.path(), "-q render small.json --out fresh").exitCode == 0);
-    for (int f = 1; f <= 4; ++f) CHECK(readAll(dir.path() / "part" / frameName(f)) == readAll(dir.path() / "fresh" / frameName(f)));
+    for (int f = 1; f <= 4; ++f)
+        CHECK(readAll(dir.path() / "part" / frameName(f)) == readAll(dir.path() / "fresh" / frameName(f)));
     // 16-bit RGBA output: the 8-bit frames are replaced, not mixed with 16-bit ones.
     text = readAll(scene);
     text.replace(text.find("\"supersample\": 1}"), 17, R"("supersample": 1, "bit_depth": 16, "transparent": true})");
@@ -169,8 +175,10 @@ TEST_CASE("e2e: --resume never keeps frames of an earlier version of the scene o
     REQUIRE(deeper.exitCode == 0);
     CHECK_THAT(deeper.err, Catch::Contains("resume: kept 0 complete frames, rendered 4"));
     // The same scene by another path gives the same bytes (the key is the content, not the path).
-    REQUIRE(runDgvIn(dir.path(), "-q render " + quote((dir.path() / "small.json").string()) + " --out abs").exitCode == 0);
-    for (int f = 1; f <= 4; ++f) CHECK(readAll(dir.path() / "abs" / frameName(f)) == readAll(dir.path() / "part" / frameName(f)));
+    REQUIRE(runDgvIn(dir.path(), "-q render " + quote((dir.path() / "small.json").string()) + " --out abs").exitCode ==
+            0);
+    for (int f = 1; f <= 4; ++f)
+        CHECK(readAll(dir.path() / "abs" / frameName(f)) == readAll(dir.path() / "part" / frameName(f)));
 }
 
 TEST_CASE("e2e: --movie does not trust ffmpeg's exit status: a broken movie is not kept", "[e2e][faults]") {
@@ -183,7 +191,8 @@ TEST_CASE("e2e: --movie does not trust ffmpeg's exit status: a broken movie is n
     std::ofstream(fake) << "#!/bin/sh\nfor last; do :; done\nprintf 'x' > \"$last\"\n"
                            "echo \"Error writing trailer of $last: No space left on device\" >&2\nexit 0\n";
     fs::permissions(fake, fs::perms::owner_all);
-    const Run r = runDgvIn(dir.path(), "render small.json --movie --out m", "PATH=" + quote(dir.path() / "bin") + ":\"$PATH\"");
+    const Run r =
+        runDgvIn(dir.path(), "render small.json --movie --out m", "PATH=" + quote(dir.path() / "bin") + ":\"$PATH\"");
     INFO("stderr: " << r.err);
     CHECK(r.exitCode == 1);
     CHECK_THAT(r.err, Catch::Contains("ffmpeg failed making"));
@@ -199,10 +208,12 @@ TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume fini
     writeScene(dir.path(), frames);
     REQUIRE(runDgvIn(dir.path(), "-q render small.json --out full").exitCode == 0);
     // Start a run, wait for its second frame, then SIGTERM it (the shell reports dgv's exit code).
-    const std::string killer =
-        "( " + quote(DGV_EXE) + " -q render small.json --out part & pid=$!; n=0; "
-        "while [ ! -e part/" + frameName(2) + " ] && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
-        "kill -TERM $pid; wait $pid; echo $? > killed.rc ) 2> killed.err; true;";
+    const std::string killer = "( " + quote(DGV_EXE) +
+                               " -q render small.json --out part & pid=$!; n=0; "
+                               "while [ ! -e part/" +
+                               frameName(2) +
+                               " ] && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
+                               "kill -TERM $pid; wait $pid; echo $? > killed.rc ) 2> killed.err; true;";
     const Run setup = runDgvIn(dir.path(), "--version", killer);
     REQUIRE(setup.exitCode == 0);
     const int killedRc = std::stoi(readAll(dir.path() / "killed.rc"));
@@ -222,7 +233,7 @@ TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume fini
     }
     for (const std::string& name : left) {
         INFO(name);
-        CHECK(name.front() != '.');  // no temporary left behind
+        CHECK(name.front() != '.');                                          // no temporary left behind
         CHECK(readAll(part / name) == readAll(dir.path() / "full" / name));  // every frame left is complete
     }
     const Run r = runDgvIn(dir.path(), "--progress log render small.json --out part --resume");
@@ -242,7 +253,8 @@ TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume fini
 TEST_CASE("e2e: a second signal ends a run at once, with one line and exit 130", "[e2e][faults]") {
     test::TempDir dir("e2e_signal2");
     const std::string killer =
-        "( " + quote(DGV_EXE) + " bench vdb > bench.out & pid=$!; n=0; "
+        "( " + quote(DGV_EXE) +
+        " bench vdb > bench.out & pid=$!; n=0; "
         "while ! grep -q bench.threads bench.out 2>/dev/null && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
         "kill -TERM $pid; sleep 0.2; kill -INT $pid; wait $pid; echo $? > killed.rc ) 2> killed.err; true;";
     REQUIRE(runDgvIn(dir.path(), "--version", killer).exitCode == 0);
@@ -262,14 +274,18 @@ TEST_CASE("e2e: SIGHUP stops a run like SIGTERM, a closed stderr pipe does not s
     test::TempDir dir("e2e_hup_pipe");
     const int frames = 6;
     writeScene(dir.path(), frames);
-    const std::string piped = "( " + quote(DGV_EXE) + " --progress log render small.json --out piped 2>&1; echo $? > piped.rc ) | head -c 1 > /dev/null; true;";
+    const std::string piped =
+        "( " + quote(DGV_EXE) +
+        " --progress log render small.json --out piped 2>&1; echo $? > piped.rc ) | head -c 1 > /dev/null; true;";
     REQUIRE(runDgvIn(dir.path(), "--version", piped).exitCode == 0);
     CHECK(std::stoi(readAll(dir.path() / "piped.rc")) == 0);
     CHECK(namesIn(dir.path() / "piped") == frameNames(1, frames));
-    const std::string hangUp =
-        "( " + quote(DGV_EXE) + " -q render small.json --out hup & pid=$!; n=0; "
-        "while [ ! -e hup/" + frameName(1) + " ] && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
-        "kill -HUP $pid; wait $pid; echo $? > hup.rc ) 2> hup.err; true;";
+    const std::string hangUp = "( " + quote(DGV_EXE) +
+                               " -q render small.json --out hup & pid=$!; n=0; "
+                               "while [ ! -e hup/" +
+                               frameName(1) +
+                               " ] && [ $n -lt 400 ]; do sleep 0.05; n=$((n+1)); done; "
+                               "kill -HUP $pid; wait $pid; echo $? > hup.rc ) 2> hup.err; true;";
     REQUIRE(runDgvIn(dir.path(), "--version", hangUp).exitCode == 0);
     const int rc = std::stoi(readAll(dir.path() / "hup.rc"));
     const std::string err = readAll(dir.path() / "hup.err");

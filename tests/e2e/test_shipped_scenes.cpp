@@ -73,7 +73,8 @@ TEST_CASE("e2e: the default scene's jelly lands on its plate, wobbles and rests 
           "[e2e][scene][slow]") {
     test::TempDir dir("e2e_default");
     // The jelly mould has no material settings: it is the jelly preset (scenes/README.md).
-    REQUIRE_FALSE(nlohmann::json::parse(readAll(test::sourcePath("scenes/default.json")))["objects"][0].contains("material"));
+    REQUIRE_FALSE(
+        nlohmann::json::parse(readAll(test::sourcePath("scenes/default.json")))["objects"][0].contains("material"));
     const Rows rows = runShipped(dir, "default", 72);
     REQUIRE(rows.size() == 72);
     checkVolumeGoals(figuresOf(rows));  // measured: max cell error 1.0e-5, drift ≤ 5e-7
@@ -96,9 +97,11 @@ TEST_CASE("e2e: the default scene's jelly lands on its plate, wobbles and rests 
     CHECK(rows.back().at("contacts") > 0);           // on the plate and the ground
 }
 
-TEST_CASE("e2e: ring_drop's putty blob runs 240 frames within the volume goals and comes to rest", "[e2e][scene][plastic][slow]") {
+TEST_CASE("e2e: ring_drop's putty blob runs 240 frames within the volume goals and comes to rest",
+          "[e2e][scene][plastic][slow]") {
     test::TempDir dir("e2e_ring_drop");
-    REQUIRE(nlohmann::json::parse(readAll(test::sourcePath("scenes/ring_drop.json")))["objects"][0]["material"]["yield"].get<double>() > 0);
+    REQUIRE(nlohmann::json::parse(readAll(test::sourcePath("scenes/ring_drop.json")))["objects"][0]["material"]["yield"]
+                .get<double>() > 0);
     const Rows rows = runShipped(dir, "ring_drop", 240);
     REQUIRE(rows.size() == 240);
     const Figures f = figuresOf(rows);
@@ -112,7 +115,7 @@ TEST_CASE("e2e: ring_drop's putty blob runs 240 frames within the volume goals a
     std::vector<double> resting;
     for (std::size_t i = rows.size() - 48; i < rows.size(); ++i) resting.push_back(rows[i].at("kinetic_energy"));
     std::sort(resting.begin(), resting.end());
-    CHECK(resting[24] < 1e-3);    // the median (measured 1.9e-4 J, still decaying; 478 J at frame 13 as it fell)
+    CHECK(resting[24] < 1e-3);     // the median (measured 1.9e-4 J, still decaying; 478 J at frame 13 as it fell)
     CHECK(resting.back() < 2e-3);  // no kick, no jitter (measured 3.8e-4 J; at damping 1, 1e-2 to 3.4e-2 J)
     CHECK(rows.back().at("contacts") > 0);  // on the ground
 }
@@ -127,8 +130,8 @@ TEST_CASE("e2e: jelly_cantilever sags under gravity, wobbles and comes to rest w
     const Rows rows = runShipped(dir, "jelly_cantilever", 480);
     REQUIRE(rows.size() == 480);
     const Figures f = figuresOf(rows);
-    checkVolumeGoals(f);        // measured: max cell error 5.1e-6, drift 3.8e-7
-    CHECK(f.peakEnergy > 0.5);  // it falls into its sag (measured 0.78 J at frame 13)
+    checkVolumeGoals(f);                                          // measured: max cell error 5.1e-6, drift 3.8e-7
+    CHECK(f.peakEnergy > 0.5);                                    // it falls into its sag (measured 0.78 J at frame 13)
     CHECK(rows[239].at("kinetic_energy") < 1e-4 * f.peakEnergy);  // and rests there (measured 3.8e-7 J)
     double restingTwist = 0;
     for (std::size_t i = 239; i < rows.size(); ++i) restingTwist = std::max(restingTwist, rows[i].at("sum_dgamma2"));

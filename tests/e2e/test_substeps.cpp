@@ -27,10 +27,11 @@ namespace {
 /// A ball of 4 voxels (h = 0.05 m), 24 fps, with the given extra top-level keys and material.
 SceneDesc ballScene(const test::TempDir& dir, const std::string& top, const std::string& material,
                     const std::string& rest) {
-    return parseScene(R"({"frames": {"start": 1, "end": 96, "fps": 24})" + top +
-                          R"(, "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.2}, "material": {)" +
-                          material + "}" + rest,
-                      dir.path() / "s.json");
+    return parseScene(
+        R"({"frames": {"start": 1, "end": 96, "fps": 24})" + top +
+            R"(, "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.2}, "material": {)" +
+            material + "}" + rest,
+        dir.path() / "s.json");
 }
 
 }  // namespace
@@ -53,26 +54,27 @@ TEST_CASE("substeps: the speed, the force and the stiffness each set a frame's s
     SECTION("force: ceil(T sqrt(|a| / (h / 5))), a body at rest") {
         // gravity 9.81: T sqrt(9.81 / 0.01) = 1.305 -> 2; 40: 2.635 -> 3
         for (const auto& [g, want] : {std::pair<Real, int>{9.81, 2}, {40.0, 3}}) {
-            const SceneDesc scene = ballScene(dir, "", "", R"(}], "forces": [{"type": "gravity", "strength": )" +
-                                                               std::to_string(g) + "}]}");
+            const SceneDesc scene = ballScene(
+                dir, "", "", R"(}], "forces": [{"type": "gravity", "strength": )" + std::to_string(g) + "}]}");
             Simulation sim(scene, {&lat});
             CHECK(sim.advanceTo(2).substeps == want);
         }
     }
     SECTION("stiffness: ceil(T sqrt(k)), so that δt sqrt(k) <= 1") {
         for (const auto& [k, want] : {std::pair<Real, int>{3000, 3}, {20000, 6}}) {
-            const SceneDesc scene = ballScene(dir, "", R"("stiffness": )" + std::to_string(k),
-                                              R"(, "velocity": [0.01, 0, 0]}]})");
+            const SceneDesc scene =
+                ballScene(dir, "", R"("stiffness": )" + std::to_string(k), R"(, "velocity": [0.01, 0, 0]}]})");
             Simulation sim(scene, {&lat});
             CHECK(sim.advanceTo(2).substeps == want);
         }
     }
     SECTION("max_substeps caps them; max_substeps = substeps fixes them") {
-        const SceneDesc capped = ballScene(dir, R"(, "max_substeps": 4)", R"("damping": 0)", R"(, "velocity": [3, 0, 4]}]})");
+        const SceneDesc capped =
+            ballScene(dir, R"(, "max_substeps": 4)", R"("damping": 0)", R"(, "velocity": [3, 0, 4]}]})");
         Simulation a(capped, {&lat});
         CHECK(a.advanceTo(2).substeps == 4);
-        const SceneDesc fixed = ballScene(dir, R"(, "substeps": 2, "max_substeps": 2)", R"("damping": 0)",
-                                          R"(, "velocity": [3, 0, 4]}]})");
+        const SceneDesc fixed =
+            ballScene(dir, R"(, "substeps": 2, "max_substeps": 2)", R"("damping": 0)", R"(, "velocity": [3, 0, 4]}]})");
         Simulation b(fixed, {&lat});
         CHECK(b.advanceTo(2).substeps == 2);
     }
@@ -101,7 +103,8 @@ TEST_CASE("substeps: a free fall through changing substeps is exact", "[sim][sub
     CHECK(worst < 1e-9);
 }
 
-TEST_CASE("substeps: a run restored where the substeps change continues bit-identically", "[sim][substeps][checkpoint]") {
+TEST_CASE("substeps: a run restored where the substeps change continues bit-identically",
+          "[sim][substeps][checkpoint]") {
     // The state carries the last step's length: restored at a frame whose successor takes
     // another count, the per-step state is rescaled the same way as in the uninterrupted run.
     test::TempDir dir("substeps_restore");

@@ -40,7 +40,7 @@ TEST_CASE("e2e: cell volumes from a written cache's position grid agree with vol
     // stats.csv's max_cell_volume_error is the largest over the frame's substeps, the cache's
     // volume_ratio the frame's end.
     std::ofstream(dir.path() / "swirl.json") << R"({"name": "swirl", "frames": {"start": 1, "end": )" << kFrames
-                                              << R"(, "fps": 24}, "substeps": 1, "max_substeps": 1,
+                                             << R"(, "fps": 24}, "substeps": 1, "max_substeps": 1,
   "objects": [{"name": "cube", "primitive": {"type": "box", "size": [0.4, 0.4, 0.4]},
                "transform": {"translate": [0, 0.24, 0], "rotate": [0, 0, 12]}, "resolution": 8,
                "material": {"damping": 1, "volume_tolerance": 1e-4}, "spin": [0, 90, 0]}],
@@ -97,7 +97,7 @@ TEST_CASE("e2e: cell volumes from a written cache's position grid agree with vol
         const double floatBound = 24 * std::ldexp(maxCoordinate, -24) / h;
         CHECK(worstCell < floatBound);
         // volume_ratio is a float: near 1 its step is 2^-24 below and 2^-23 above (1.2e-7), so
-    // |r - 1| is known to one step; stats.csv prints 3 decimals of the mantissa (5e-4).
+        // |r - 1| is known to one step; stats.csv prints 3 decimals of the mantissa (5e-4).
         const double csvError = row.at("max_cell_volume_error");
         CHECK(std::abs(maxFromRatio - csvError) <= 5e-4 * csvError + 1.2e-7);
         const double csvDrift = row.at("total_volume_drift");

@@ -23,8 +23,7 @@ Lattice ballLattice(Real h) {
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i)
-                mask[static_cast<std::size_t>(i + n * (j + n * k))] =
-                    (origin + h * Vec3(i, j, k)).norm() <= radius;
+                mask[static_cast<std::size_t>(i + n * (j + n * k))] = (origin + h * Vec3(i, j, k)).norm() <= radius;
     return buildLattice(origin, h, Vec3i(n, n, n), mask);
 }
 
@@ -78,8 +77,7 @@ TEST_CASE("embedding: trilinear inside, nearest anchor outside", "[geom]") {
         }
         // The anchor is the nearest material point (brute force).
         Real best = 1e300;
-        for (Index p = 0; p < lat.size(); ++p)
-            best = std::min(best, (lat.coords[p].cast<Real>() - u).squaredNorm());
+        for (Index p = 0; p < lat.size(); ++p) best = std::min(best, (lat.coords[p].cast<Real>() - u).squaredNorm());
         REQUIRE(emb.offset[v].squaredNorm() == Approx(best).epsilon(1e-12));
         REQUIRE((lat.coords[emb.anchor[v]].cast<Real>() + emb.offset[v] - u).norm() < 1e-12);
     }
@@ -128,8 +126,7 @@ TEST_CASE("embedding: rest positions reproduced, affine motions and rotations ex
             motions.push_back({a, Vec3(d(rng), d(rng), d(rng)) * 10});
         }
         motions.push_back(
-            {Eigen::AngleAxis<Real>(2.2, Vec3(-1, 3, 1).normalized()).toRotationMatrix(),
-             Vec3(4, -2, 1)});
+            {Eigen::AngleAxis<Real>(2.2, Vec3(-1, 3, 1).normalized()).toRotationMatrix(), Vec3(4, -2, 1)});
         REQUIRE(motions.size() >= 3);
         for (const auto& [a, b] : motions) {
             std::vector<Vec3> x(rest.size());
@@ -185,9 +182,8 @@ TEST_CASE("embedding: second-order anchors follow a bend better than first-order
         REQUIRE(count > 300);
         rms[second] = std::sqrt(rms[second] / count);
     }
-    INFO("anchored vertices, first order: rms " << rms[0] << " max " << worst[0]
-                                                << "; second order: rms " << rms[1] << " max "
-                                                << worst[1]);
+    INFO("anchored vertices, first order: rms " << rms[0] << " max " << worst[0] << "; second order: rms " << rms[1]
+                                                << " max " << worst[1]);
     REQUIRE(rms[1] < 0.2 * rms[0]);
     REQUIRE(worst[1] <= worst[0]);
     REQUIRE(worst[1] < 0.05 * lat.spacing);  // well below a voxel

@@ -109,8 +109,8 @@ struct Rates {
     std::array<Real, 2> interior, boundary;
 };
 
-Rates measureRates(const char* name, const Vec3i& cells, const Vec3& s0, const Vec3& step0,
-                   const MapFn& phi, const GammaFn& exact) {
+Rates measureRates(const char* name, const Vec3i& cells, const Vec3& s0, const Vec3& step0, const MapFn& phi,
+                   const GammaFn& exact) {
     Rates r;
     for (int level = 0; level < 3; ++level) {
         const Sampled s = sampleBox(cells, 1 << level, s0, step0, phi);
@@ -127,13 +127,12 @@ Rates measureRates(const char* name, const Vec3i& cells, const Vec3& s0, const V
             "%s: interior rel. error %.3e %.3e %.3e (orders %.2f %.2f); "
             "boundary %.3e "
             "%.3e %.3e (orders %.2f %.2f)\n",
-            name, r.errors[0].interior, r.errors[1].interior, r.errors[2].interior, r.interior[0],
-            r.interior[1], r.errors[0].boundary, r.errors[1].boundary, r.errors[2].boundary,
-            r.boundary[0], r.boundary[1]);
+            name, r.errors[0].interior, r.errors[1].interior, r.errors[2].interior, r.interior[0], r.interior[1],
+            r.errors[0].boundary, r.errors[1].boundary, r.errors[2].boundary, r.boundary[0], r.boundary[1]);
     }
     INFO(name << " interior errors " << r.errors[0].interior << " " << r.errors[1].interior << " "
-              << r.errors[2].interior << "; boundary " << r.errors[0].boundary << " "
-              << r.errors[1].boundary << " " << r.errors[2].boundary);
+              << r.errors[2].interior << "; boundary " << r.errors[0].boundary << " " << r.errors[1].boundary << " "
+              << r.errors[2].boundary);
     CHECK(r.interior[0] > 1.8);
     CHECK(r.interior[1] > 1.8);
     CHECK(r.boundary[0] > 0.8);
@@ -233,9 +232,7 @@ Mat3 randomAffine(std::mt19937_64& rng) {
 Lattice awkwardLattice() {
     const Vec3i dims(24, 20, 20);
     std::vector<unsigned char> mask = sphereMask(dims, {9, 9.5, 9.5}, 7.2);
-    auto set = [&](int i, int j, int k) {
-        mask[static_cast<std::size_t>(i + dims.x() * (j + dims.y() * k))] = 1;
-    };
+    auto set = [&](int i, int j, int k) { mask[static_cast<std::size_t>(i + dims.x() * (j + dims.y() * k))] = 1; };
     for (int j = 2; j < 8; ++j)
         for (int i = 18; i < 23; ++i) set(i, j, 3);  // sheet, normal k
     for (int k = 10; k < 18; ++k) set(20, 15, k);    // rod along k
@@ -282,15 +279,12 @@ TEST_CASE("geometric state: affine maps give zero connection and exact duals", "
         for (Index p = 0; p < lat.size(); ++p) {
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j)
-                    dualErr = std::max(dualErr, std::abs(st.dual[i][p].dot(st.tangent[j][p]) -
-                                                         (i == j ? 1.0 : 0.0)));
-            invErr = std::max(
-                invErr, (st.metric[p] * st.metricInv[p] - Mat3::Identity()).cwiseAbs().maxCoeff());
+                    dualErr = std::max(dualErr, std::abs(st.dual[i][p].dot(st.tangent[j][p]) - (i == j ? 1.0 : 0.0)));
+            invErr = std::max(invErr, (st.metric[p] * st.metricInv[p] - Mat3::Identity()).cwiseAbs().maxCoeff());
             // Frames with a finite difference on every axis are exactly h A e_a.
             bool full = true;
             for (int s = 0; s < 6; s += 2)
-                full = full &&
-                       (lat.neighbours[p][s] != kNoPoint || lat.neighbours[p][s + 1] != kNoPoint);
+                full = full && (lat.neighbours[p][s] != kNoPoint || lat.neighbours[p][s + 1] != kNoPoint);
             if (full)
                 for (int i = 0; i < 3; ++i)
                     tanErr = std::max(tanErr, (st.tangent[i][p] - lat.spacing * a.col(i)).norm());
@@ -326,8 +320,7 @@ TEST_CASE("geometric state: connection is invariant under x -> A x + b", "[geom]
     for (int c = 0; c < 3; ++c)
         for (Index p = 0; p < lat.size(); ++p)
             if (lat.component[p] == ball)
-                diff = std::max(
-                    diff, (sx.christoffel[c][p] - sy.christoffel[c][p]).cwiseAbs().maxCoeff());
+                diff = std::max(diff, (sx.christoffel[c][p] - sy.christoffel[c][p]).cwiseAbs().maxCoeff());
     INFO("max |Gamma(Ax+b) - Gamma(x)| / max |Gamma| = " << diff / scale);
     // Round-off of second differences of positions of size |b| ~ 37 (measured 1.2e-12).
     REQUIRE(diff / scale < 5e-12);
@@ -341,15 +334,11 @@ TEST_CASE("geometric state: duals and inverse metric on a curved map", "[geom]")
     for (Index p = 0; p < s.lat.size(); ++p) {
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
-                dualErr =
-                    std::max(dualErr, std::abs(st.dual[i][p].dot(st.tangent[j][p]) - (i == j)));
-        invErr = std::max(
-            invErr, (st.metric[p] * st.metricInv[p] - Mat3::Identity()).cwiseAbs().maxCoeff());
-        invErr = std::max(
-            invErr, (st.metricInv[p] * st.metric[p] - Mat3::Identity()).cwiseAbs().maxCoeff());
+                dualErr = std::max(dualErr, std::abs(st.dual[i][p].dot(st.tangent[j][p]) - (i == j)));
+        invErr = std::max(invErr, (st.metric[p] * st.metricInv[p] - Mat3::Identity()).cwiseAbs().maxCoeff());
+        invErr = std::max(invErr, (st.metricInv[p] * st.metric[p] - Mat3::Identity()).cwiseAbs().maxCoeff());
         for (int c = 0; c < 3; ++c) {
-            symErr =
-                std::max(symErr, (st.christoffel[c][p] - st.christoffel[c][p].transpose()).norm());
+            symErr = std::max(symErr, (st.christoffel[c][p] - st.christoffel[c][p].transpose()).norm());
             // Gamma^c_ab = x^c . x_ab, and x_ab = sum_c Gamma^c_ab x_c (eq 7) for the stored x_ab.
         }
         for (int k = 0; k < 6; ++k) {
@@ -374,13 +363,11 @@ TEST_CASE("geometric state: twist converges at 2nd order inside, 1st at the boun
 }
 
 TEST_CASE("geometric state: cylindrical coordinates, textbook symbols, rates", "[geom]") {
-    measureRates("cylindrical", {8, 8, 4}, Vec3(1, 0, 0), Vec3(0.125, 0.15, 0.25), cylindrical,
-                 cylindricalGamma);
+    measureRates("cylindrical", {8, 8, 4}, Vec3(1, 0, 0), Vec3(0.125, 0.15, 0.25), cylindrical, cylindricalGamma);
 }
 
 TEST_CASE("geometric state: spherical coordinates, textbook symbols, rates", "[geom]") {
-    measureRates("spherical", {8, 8, 8}, Vec3(1, 0.5, 0), Vec3(0.125, 0.1, 0.125), spherical,
-                 sphericalGamma);
+    measureRates("spherical", {8, 8, 8}, Vec3(1, 0.5, 0), Vec3(0.125, 0.1, 0.125), spherical, sphericalGamma);
 }
 
 TEST_CASE("geometric state: trace of the connection is d ln det F", "[geom]") {
@@ -407,8 +394,7 @@ TEST_CASE("geometric state: trace of the connection is d ln det F", "[geom]") {
         "2nd order") {
         std::array<Real, 3> err{};
         for (int level = 0; level < 3; ++level) {
-            const Sampled s = sampleBox({8, 8, 8}, 1 << level, Vec3(1, 0.5, 0),
-                                        Vec3(0.125, 0.1, 0.125), spherical);
+            const Sampled s = sampleBox({8, 8, 8}, 1 << level, Vec3(1, 0.5, 0), Vec3(0.125, 0.1, 0.125), spherical);
             GeometricState st;
             computeGeometricState(s.lat, s.x, st);
             Real worst = 0, scale = 0;
@@ -416,8 +402,7 @@ TEST_CASE("geometric state: trace of the connection is d ln det F", "[geom]") {
                 if (!s.interior(p)) continue;
                 const Vec3 sp = s.param(p);
                 // d/du_a = step_a d/ds_a
-                const Vec3 exact(2 / sp[0] * s.step[0],
-                                 std::cos(sp[1]) / std::sin(sp[1]) * s.step[1], 0);
+                const Vec3 exact(2 / sp[0] * s.step[0], std::cos(sp[1]) / std::sin(sp[1]) * s.step[1], 0);
                 for (int a = 0; a < 3; ++a) {
                     Real tr = 0;
                     for (int b = 0; b < 3; ++b) tr += st.christoffel[b][p](a, b);
@@ -442,8 +427,7 @@ TEST_CASE(
     // Measured on a region fixed in space (the central half of each parameter range).
     std::array<Real, 3> err{};
     for (int level = 0; level < 3; ++level) {
-        const Sampled s =
-            sampleBox({8, 8, 8}, 1 << level, Vec3(1, 0.5, 0), Vec3(0.125, 0.1, 0.125), spherical);
+        const Sampled s = sampleBox({8, 8, 8}, 1 << level, Vec3(1, 0.5, 0), Vec3(0.125, 0.1, 0.125), spherical);
         GeometricState st;
         computeGeometricState(s.lat, s.x, st);
         std::vector<Vec3> f(s.lat.size());
@@ -456,8 +440,7 @@ TEST_CASE(
             if (!s.inner(p, 0.25)) continue;
             worst = std::max(worst, cov[p].cwiseAbs().maxCoeff());
             // Size of each of the two terms that cancel: the connection term.
-            for (int b = 0; b < 3; ++b)
-                scale = std::max(scale, (st.christoffel[b][p] * f[p]).cwiseAbs().maxCoeff());
+            for (int b = 0; b < 3; ++b) scale = std::max(scale, (st.christoffel[b][p] * f[p]).cwiseAbs().maxCoeff());
         }
         err[level] = worst / scale;
     }
@@ -490,8 +473,7 @@ TEST_CASE("covariant derivative: linear field on an affine lattice is exact", "[
     Real worst = 0;
     for (Index p = 0; p < lat.size(); ++p) {
         for (int ax = 0; ax < 3; ++ax) {
-            const bool has =
-                lat.neighbours[p][2 * ax] != kNoPoint || lat.neighbours[p][2 * ax + 1] != kNoPoint;
+            const bool has = lat.neighbours[p][2 * ax] != kNoPoint || lat.neighbours[p][2 * ax + 1] != kNoPoint;
             // Axes without neighbours have no derivative (0), by definition.
             const Vec3 expected = has ? Vec3(m.col(ax)) : Vec3::Zero();
             worst = std::max(worst, (cov[p].col(ax) - expected).cwiseAbs().maxCoeff());
@@ -513,8 +495,7 @@ TEST_CASE("geometric state: thin sheets, rods and isolated points get sane frame
     for (Index p = 0; p < lat.size(); ++p) {
         int missing = 0;
         for (int ax = 0; ax < 3; ++ax)
-            missing +=
-                lat.neighbours[p][2 * ax] == kNoPoint && lat.neighbours[p][2 * ax + 1] == kNoPoint;
+            missing += lat.neighbours[p][2 * ax] == kNoPoint && lat.neighbours[p][2 * ax + 1] == kNoPoint;
         Mat3 frame;
         frame << st.tangent[0][p], st.tangent[1][p], st.tangent[2][p];
         REQUIRE(frame.determinant() == Approx(h * h * h).epsilon(1e-12));
@@ -526,8 +507,7 @@ TEST_CASE("geometric state: thin sheets, rods and isolated points get sane frame
             // Rod along k: x_k = h R e_k; the others orthogonal to it, length h.
             ++rod;
             REQUIRE((frame.col(2) - h * rot.col(2)).norm() < 1e-12);
-            REQUIRE((frame.transpose() * frame - h * h * Mat3::Identity()).cwiseAbs().maxCoeff() <
-                    1e-12);
+            REQUIRE((frame.transpose() * frame - h * h * Mat3::Identity()).cwiseAbs().maxCoeff() < 1e-12);
         } else if (missing == 3) {
             ++isolated;
             REQUIRE((frame - h * Mat3::Identity()).cwiseAbs().maxCoeff() == 0);
@@ -578,8 +558,7 @@ TEST_CASE("geometric state: completeFrame and invertMetric kernels", "[geom]") {
         const Vec3 v(1, 2, 2);
         const Mat3 rank1 = v * v.transpose();
         REQUIRE_FALSE(invertMetric(rank1, gi));
-        REQUIRE((gi - v * v.transpose() / std::pow(v.squaredNorm(), 2)).cwiseAbs().maxCoeff() <
-                1e-15);
+        REQUIRE((gi - v * v.transpose() / std::pow(v.squaredNorm(), 2)).cwiseAbs().maxCoeff() < 1e-15);
         REQUIRE_FALSE(invertMetric(Mat3::Zero(), gi));
         REQUIRE(gi == Mat3::Zero());
     }
@@ -642,7 +621,8 @@ TEST_CASE("geometric state: the realisable boundary stencils are exact for affin
     // A curved map (a bend and a swirl of a few voxels' wavelength).
     for (std::size_t p = 0; p < x.size(); ++p) {
         const Vec3 u = rest[p];
-        x[p] = u + Vec3(0.4 * std::sin(0.9 * u.y()), 0.3 * std::cos(0.7 * u.z() + 0.2 * u.x()), 0.25 * u.x() * u.y() / 10);
+        x[p] =
+            u + Vec3(0.4 * std::sin(0.9 * u.y()), 0.3 * std::cos(0.7 * u.z() + 0.2 * u.x()), 0.25 * u.x() * u.y() / 10);
     }
     GeometricState realisable, accurate;
     computeGeometricState(lat, x, realisable, BoundaryStencils::Realisable);
@@ -671,11 +651,13 @@ TEST_CASE("geometric state: the realisable boundary stencils are exact for affin
             const Index q = lat.neighbours[static_cast<std::size_t>(p)][static_cast<std::size_t>(s)];
             interior = q != kNoPoint;
             for (int t = 0; t < 6 && interior; ++t)
-                if (t / 2 != s / 2) interior = lat.neighbours[static_cast<std::size_t>(q)][static_cast<std::size_t>(t)] != kNoPoint;
+                if (t / 2 != s / 2)
+                    interior = lat.neighbours[static_cast<std::size_t>(q)][static_cast<std::size_t>(t)] != kNoPoint;
         }
         if (!interior) continue;
         for (int c = 0; c < 3; ++c)
-            interiorDiff = std::max(interiorDiff, (realisable.christoffel[c][p] - accurate.christoffel[c][p]).cwiseAbs().maxCoeff());
+            interiorDiff = std::max(interiorDiff,
+                                    (realisable.christoffel[c][p] - accurate.christoffel[c][p]).cwiseAbs().maxCoeff());
     }
     CHECK(interiorDiff == 0);
 }

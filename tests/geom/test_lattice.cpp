@@ -15,8 +15,7 @@ std::vector<unsigned char> boxMask(const Vec3i& dims, const Vec3i& lo, const Vec
     std::vector<unsigned char> m(static_cast<std::size_t>(dims.prod()), 0);
     for (int k = lo.z(); k <= hi.z(); ++k)
         for (int j = lo.y(); j <= hi.y(); ++j)
-            for (int i = lo.x(); i <= hi.x(); ++i)
-                m[static_cast<std::size_t>(i + dims.x() * (j + dims.y() * k))] = 1;
+            for (int i = lo.x(); i <= hi.x(); ++i) m[static_cast<std::size_t>(i + dims.x() * (j + dims.y() * k))] = 1;
     return m;
 }
 
@@ -42,8 +41,7 @@ TEST_CASE("lattice: box mask numbers points in linear order, i fastest", "[geom]
     REQUIRE(lat.coords[1] == Vec3i(2, 1, 1));
     REQUIRE(lat.coords[4] == Vec3i(1, 2, 1));
     REQUIRE(lat.coords[12] == Vec3i(1, 1, 2));
-    for (Index p = 1; p < lat.size(); ++p)
-        REQUIRE(lat.linearIndex(lat.coords[p]) > lat.linearIndex(lat.coords[p - 1]));
+    for (Index p = 1; p < lat.size(); ++p) REQUIRE(lat.linearIndex(lat.coords[p]) > lat.linearIndex(lat.coords[p - 1]));
     for (Index p = 0; p < lat.size(); ++p) REQUIRE(lat.pointAt(lat.coords[p]) == p);
     REQUIRE(lat.pointAt(Vec3i(0, 0, 0)) == kNoPoint);
     REQUIRE(lat.pointAt(Vec3i(-1, 1, 1)) == kNoPoint);
@@ -141,8 +139,7 @@ TEST_CASE("lattice: separate blobs get components ordered by first point", "[geo
     const std::vector<unsigned char> b = boxMask(dims, {1, 1, 1}, {5, 3, 4});  // first point
     for (std::size_t c = 0; c < mask.size(); ++c) mask[c] |= b[c];
     // A diagonal-only touching voxel: 6-connectivity keeps it separate.
-    mask[static_cast<std::size_t>(6 + 20 * (4 + 10 * 5))] =
-        1;  // (6,4,5) touches (5,3,4) by a corner
+    mask[static_cast<std::size_t>(6 + 20 * (4 + 10 * 5))] = 1;  // (6,4,5) touches (5,3,4) by a corner
     const Lattice lat = buildLattice(Vec3::Zero(), 1, dims, mask);
     REQUIRE(lat.components == 3);
     REQUIRE(lat.component[0] == 0);
@@ -150,9 +147,7 @@ TEST_CASE("lattice: separate blobs get components ordered by first point", "[geo
     for (Index p = 0; p < lat.size(); ++p) {
         const Vec3i& u = lat.coords[p];
         // First points: box (1,1,1), sphere (14,5,2), lone voxel (6,4,5) last.
-        const int expected = (u.x() <= 5 && u.y() <= 3 && u.z() <= 4) ? 0
-                             : (u == Vec3i(6, 4, 5))                  ? 2
-                                                                      : 1;
+        const int expected = (u.x() <= 5 && u.y() <= 3 && u.z() <= 4) ? 0 : (u == Vec3i(6, 4, 5)) ? 2 : 1;
         REQUIRE(lat.component[p] == expected);
         ++counts[expected];
     }

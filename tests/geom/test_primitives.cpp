@@ -57,7 +57,7 @@ TEST_CASE("primitives: volumes converge to the analytic ones at second order", "
                            std::abs(meshSignedVolume(makeTorus(R, rt, n, n)) / torus - 1),
                            std::abs(meshSignedVolume(makeCapsule(r, hc, n, n / 4)) / capsule - 1)};
         for (int s = 0; s < 3; ++s) {
-            CHECK(e[s] < 40.0 / (n * n));  // O(1/n^2), with the constant of the inscribed polygon
+            CHECK(e[s] < 40.0 / (n * n));             // O(1/n^2), with the constant of the inscribed polygon
             if (n > 16) CHECK(e[s] < prev[s] / 3.5);  // halving the segment angle: ~1/4
             prev[s] = e[s];
         }

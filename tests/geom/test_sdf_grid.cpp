@@ -51,7 +51,8 @@ TEST_CASE("sdf_grid: outside the box, boundary value plus the distance to the bo
     for (const Vec3& p : {Vec3(0.3, -0.2, 0.55), Vec3(1.5, 0.3, 0.2), Vec3(-2, 0.1, 0.6)}) {
         const Real e = 1e-6;
         Vec3 fd;
-        for (int a = 0; a < 3; ++a) fd[a] = (g.distance(p + e * Vec3::Unit(a)) - g.distance(p - e * Vec3::Unit(a))) / (2 * e);
+        for (int a = 0; a < 3; ++a)
+            fd[a] = (g.distance(p + e * Vec3::Unit(a)) - g.distance(p - e * Vec3::Unit(a))) / (2 * e);
         INFO(p.transpose());
         CHECK((g.gradient(p) - fd).norm() < 1e-5);
     }

@@ -145,6 +145,7 @@ TEST_CASE("surface check: a surface folded over is flipped, a squashed one is no
     specks.tornEdges = 1;
     CHECK_FALSE(specks.ok());
     // The same surface squashed 5:1 flat, as goo spreading on the ground is, is not folded.
-    const SurfaceCheck squashed = f.moved([](const Vec3& x) { return Vec3(std::sqrt(5.0) * x.x(), x.y() / 5, std::sqrt(5.0) * x.z()); });
+    const SurfaceCheck squashed =
+        f.moved([](const Vec3& x) { return Vec3(std::sqrt(5.0) * x.x(), x.y() / 5, std::sqrt(5.0) * x.z()); });
     CHECK(squashed.ok());
 }

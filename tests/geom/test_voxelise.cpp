@@ -180,8 +180,7 @@ TEST_CASE("voxelise: a sphere with a small hole voxelises like the closed one", 
 
 TEST_CASE("voxelise: overlapping boxes voxelise to their union", "[geom]") {
     // Two self-intersecting boxes (winding number 2 in the overlap) on a grid aligned to them.
-    const TriangleMesh m =
-        merged(makeBox(Vec3(2, 2, 2), 3), translated(makeBox(Vec3(2, 2, 2), 2), Vec3(1, 1, 0)));
+    const TriangleMesh m = merged(makeBox(Vec3(2, 2, 2), 3), translated(makeBox(Vec3(2, 2, 2), 2), Vec3(1, 1, 0)));
     const Lattice lat = voxelise(m, atVoxelSize(0.25));
     CHECK(lat.size() == 2 * 512 - 4 * 4 * 8);  // union = 2 boxes - overlap (1 x 1 x 2)
     CHECK(lat.components == 1);

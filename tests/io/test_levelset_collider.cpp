@@ -129,8 +129,9 @@ TEST_CASE("levelset collider: distance and gradient of a moved sphere match the 
                             << gradTol << ")");
     CHECK(worst < valueTol);
     CHECK(worstGrad < gradTol);
-    std::printf("levelset sphere (world voxel %.3f): max |phi - d| %.2e (bound %.2e), max |grad - n| %.3f (bound %.3f)\n",
-                hw, worst, valueTol, worstGrad, gradTol);
+    std::printf(
+        "levelset sphere (world voxel %.3f): max |phi - d| %.2e (bound %.2e), max |grad - n| %.3f (bound %.3f)\n", hw,
+        worst, valueTol, worstGrad, gradTol);
 
     // Beyond the band: outside reads as outside (at least the band, positive), inside as inside.
     for (const Real dist : {band + std::sqrt(3.0) * hw, 0.3, 2.0, 10.0}) {
@@ -178,15 +179,17 @@ TEST_CASE("levelset collider: the first level set is the default grid, its mesh 
     Real e = 0;
     for (const auto& t : m.triangles)
         for (int a = 0; a < 3; ++a)
-            e = std::max(e, (m.vertices[static_cast<std::size_t>(t[a])] - m.vertices[static_cast<std::size_t>(t[(a + 1) % 3])]).norm());
+            e = std::max(
+                e, (m.vertices[static_cast<std::size_t>(t[a])] - m.vertices[static_cast<std::size_t>(t[(a + 1) % 3])])
+                       .norm());
     const Real rLo = std::sqrt((R - worst) * (R - worst) - e * e / 3), rHi = R + worst;
     const Real V = 4.0 / 3 * M_PI * R * R * R;
     CHECK(volume > 4.0 / 3 * M_PI * rLo * rLo * rLo);
     CHECK(volume < 4.0 / 3 * M_PI * rHi * rHi * rHi);
-    std::printf("levelset mesh: %zu triangles, max |r - R| %.2e, longest edge %.4f (voxel %.3f), volume %.5f vs %.5f "
-                "(bounds %.5f, %.5f)\n",
-                m.triangles.size(), worst, e, h, volume, V, 4.0 / 3 * M_PI * rLo * rLo * rLo,
-                4.0 / 3 * M_PI * rHi * rHi * rHi);
+    std::printf(
+        "levelset mesh: %zu triangles, max |r - R| %.2e, longest edge %.4f (voxel %.3f), volume %.5f vs %.5f "
+        "(bounds %.5f, %.5f)\n",
+        m.triangles.size(), worst, e, h, volume, V, 4.0 / 3 * M_PI * rLo * rLo * rLo, 4.0 / 3 * M_PI * rHi * rHi * rHi);
     // deterministic
     CHECK(levelSetMesh(*s.colliders[0].levelSet).triangles == m.triangles);
 }
@@ -206,8 +209,10 @@ DropResult dropBall(const std::string& collider, const std::string& detect, cons
     const std::string json = R"({"frames": {"start": 1, "end": 16, "fps": 24}, "substeps": 4,
         "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.3}, "velocity": [0, -1.5, 0],
                      "material": {"preset": "goo", "damping": 2}}],
-        "forces": [{"type": "gravity"}], "collision": {"detect": ")" + detect + R"("},
-        "colliders": [)" + collider + "]}";
+        "forces": [{"type": "gravity"}], "collision": {"detect": ")" +
+                             detect + R"("},
+        "colliders": [)" + collider +
+                             "]}";
     const SceneDesc scene = parseScene(json, sceneFile);
     const Lattice lat = test::sphereLattice(6, 0.05, Vec3(-0.3, 0.02, -0.3));
     Simulation sim(scene, {&lat});
@@ -230,7 +235,8 @@ TEST_CASE("levelset collider: a ball dropped on a level-set box rests where it r
     test::TempDir dir("levelset-drop");
     // a slab [-1, 1] x [-0.5, 0] x [-1, 1], voxel 0.025 (half the ball's lattice step): top face at y = 0
     const Real vs = 0.025;
-    writeGrids(dir.path() / "slab.vdb", {boxGrid(openvdb::Vec3d(-1, -0.5, -1), openvdb::Vec3d(1, 0, 1), vs, "surface")});
+    writeGrids(dir.path() / "slab.vdb",
+               {boxGrid(openvdb::Vec3d(-1, -0.5, -1), openvdb::Vec3d(1, 0, 1), vs, "surface")});
     // On the flat top, away from the edges, the level set's samples are exact distances to the
     // plane y = 0 (linear, so trilinear interpolation is exact up to float rounding): the ball must
     // come to rest where it does on the analytic ground. The difference allowed is one voxel of

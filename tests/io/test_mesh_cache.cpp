@@ -53,7 +53,8 @@ TEST_CASE("mesh cache: a frame reads back through assimp, with normals, colour a
         // the same positions to float precision.
         REQUIRE(back.vertices.size() == sphere.vertices.size());
         Real err = 0;
-        for (std::size_t v = 0; v < back.vertices.size(); ++v) err = std::max(err, (back.vertices[v] - sphere.vertices[v]).norm());
+        for (std::size_t v = 0; v < back.vertices.size(); ++v)
+            err = std::max(err, (back.vertices[v] - sphere.vertices[v]).norm());
         CHECK(err < 1e-6);
     }
     // The PLY's vertex records: x y z nx ny nz (floats), r g b (bytes), contact (float).
@@ -68,7 +69,7 @@ TEST_CASE("mesh cache: a frame reads back through assimp, with normals, colour a
     for (std::size_t v = 0; v < sphere.vertices.size(); ++v) {
         const std::size_t at = body + v * 31;
         const Vec3 n(floatAt(at + 12), floatAt(at + 16), floatAt(at + 20));
-        CHECK(n.dot(sphere.vertices[v].normalized()) > 0.95);  // outward, unit
+        CHECK(n.dot(sphere.vertices[v].normalized()) > 0.95);      // outward, unit
         CHECK(static_cast<unsigned char>(bytes[at + 24]) == 149);  // sRGB of 0.3, 8-bit
         CHECK(floatAt(at + 27) == contact[v]);
         inContact += floatAt(at + 27) > 0;
@@ -95,7 +96,8 @@ TEST_CASE("mesh cache: truncated, foreign and other frames' files are named", "[
     }
 }
 
-TEST_CASE("e2e: simulate --mesh writes every object's frames, and --resume re-makes a bad one", "[e2e][meshcache][resume]") {
+TEST_CASE("e2e: simulate --mesh writes every object's frames, and --resume re-makes a bad one",
+          "[e2e][meshcache][resume]") {
     test::TempDir dir("e2e_mesh_cache");
     std::ofstream(dir.path() / "s.json") << R"({"name": "s", "frames": {"start": 1, "end": 4},
       "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.2}, "resolution": 8,

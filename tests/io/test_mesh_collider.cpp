@@ -44,7 +44,8 @@ std::string problemOf(const std::string& json, const fs::path& file) {
 
 }  // namespace
 
-TEST_CASE("mesh collider: the distance to a torus mesh is the torus's, outside and deep inside", "[io][vdb][meshcollider]") {
+TEST_CASE("mesh collider: the distance to a torus mesh is the torus's, outside and deep inside",
+          "[io][vdb][meshcollider]") {
     test::TempDir dir("mesh-collider-torus");
     const Real R = 0.5, r = 0.15;
     const int major = 192, minor = 96;
@@ -58,7 +59,7 @@ TEST_CASE("mesh collider: the distance to a torus mesh is the torus's, outside a
     REQUIRE(c.levelSet);
     REQUIRE(c.worldMesh);
     const Real h = c.levelSet->spacing;
-    CHECK(h == Approx(2 * (R + r) / 128));  // the default voxel: the longest edge / 128
+    CHECK(h == Approx(2 * (R + r) / 128));                           // the default voxel: the longest edge / 128
     const auto phi = levelSetDistance(c.levelSet, TransformDesc{});  // already in world space
     // The closed form in the torus's own frame (y = its axis): p = Rx(-90°)(x - (0, 0.6, 0)).
     auto exact = [&](const Vec3& x, Vec3* grad) {
@@ -75,7 +76,8 @@ TEST_CASE("mesh collider: the distance to a torus mesh is the torus's, outside a
     // Error budget: the polygon lies inside the true torus by at most its sag, r (1 - cos(pi/minor))
     // + R (1 - cos(pi/major)) = 1.2e-4; trilinear interpolation of a distance field bending with
     // radius >= r - |phi| adds at most h^2 / (8 (r - 3h)) = 1.5e-4 for h = 0.0102, float samples 1e-7.
-    const Real bound = r * (1 - std::cos(M_PI / minor)) + R * (1 - std::cos(M_PI / major)) + h * h / (8 * (r - 3 * h)) + 1e-6;
+    const Real bound =
+        r * (1 - std::cos(M_PI / minor)) + R * (1 - std::cos(M_PI / major)) + h * h / (8 * (r - 3 * h)) + 1e-6;
     // Near the surface (|phi| < h: the 8 samples around the point are within the 3-voxel
     // exterior band, not clamped) the field is the polygon's exact distance, interpolated. Deeper
     // inside, OpenVDB fills the interior by a sweep that is not exact: there only the sign, the
@@ -101,7 +103,8 @@ TEST_CASE("mesh collider: the distance to a torus mesh is the torus's, outside a
         }
     }
     INFO("voxel " << h << ", bound " << bound << ": worst near the surface " << worstNear << " (gradient direction "
-                  << worstGrad << "), deep inside relative " << worstDeep << " (gradient direction " << worstDeepGrad << ")");
+                  << worstGrad << "), deep inside relative " << worstDeep << " (gradient direction " << worstDeepGrad
+                  << ")");
     CHECK(worstNear < bound);
     // the direction of a trilinear field's gradient is off by up to about h / (2 (r - h)) = 0.04
     CHECK(worstGrad < 0.05);
@@ -110,12 +113,17 @@ TEST_CASE("mesh collider: the distance to a torus mesh is the torus's, outside a
     // The deepest point, the tube's centre line, is inside by about r.
     CHECK(phi(Vec3(R, 0.6, 0), nullptr) == Approx(-r).epsilon(0.05));
     // The drawn mesh is the transformed one.
-    const Box3 b = [&] { Box3 bb; for (const Vec3& v : c.worldMesh->vertices) bb.extend(v); return bb; }();
+    const Box3 b = [&] {
+        Box3 bb;
+        for (const Vec3& v : c.worldMesh->vertices) bb.extend(v);
+        return bb;
+    }();
     CHECK(b.max.y() == Approx(0.6 + R + r).margin(1e-9));
     CHECK(b.max.z() == Approx(r).margin(1e-9));
 }
 
-TEST_CASE("mesh collider: a ball dropped on a box mesh rests where it rests on the ground", "[io][vdb][meshcollider][sim]") {
+TEST_CASE("mesh collider: a ball dropped on a box mesh rests where it rests on the ground",
+          "[io][vdb][meshcollider][sim]") {
     test::TempDir dir("mesh-collider-drop");
     TriangleMesh slab = makeBox(Vec3(2, 0.5, 2));
     for (Vec3& v : slab.vertices) v.y() -= 0.25;  // top face at y = 0
@@ -124,7 +132,8 @@ TEST_CASE("mesh collider: a ball dropped on a box mesh rests where it rests on t
         const SceneDesc scene = parseScene(R"({"frames": {"start": 1, "end": 16, "fps": 24}, "substeps": 4,
             "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.3}, "velocity": [0, -1.5, 0],
                          "material": {"damping": 2}}],
-            "forces": [{"type": "gravity"}], "colliders": [)" + collider + "]}",
+            "forces": [{"type": "gravity"}], "colliders": [)" +
+                                               collider + "]}",
                                            dir.path() / "s.json");
         const Lattice lat = test::sphereLattice(6, 0.05, Vec3(-0.3, 0.02, -0.3));
         Simulation sim(scene, {&lat});
@@ -158,7 +167,8 @@ TEST_CASE("mesh collider: bad meshes and settings are one-line input errors", "[
         return R"({"objects": [{"primitive": {"type": "sphere"}}], "colliders": [)" + collider + "]}";
     };
     CHECK(problemOf(scene(R"({"type": "mesh", "mesh": "box.obj"})"), file) == "no error");
-    CHECK_THAT(problemOf(scene(R"({"type": "mesh"})"), file), Catch::Contains("colliders[0].mesh") && Catch::Contains("missing"));
+    CHECK_THAT(problemOf(scene(R"({"type": "mesh"})"), file),
+               Catch::Contains("colliders[0].mesh") && Catch::Contains("missing"));
     CHECK_THAT(problemOf(scene(R"({"type": "mesh", "mesh": "absent.obj"})"), file),
                Catch::Contains("colliders[0].mesh") && Catch::Contains("absent.obj") && Catch::Contains("not found"));
     CHECK_THAT(problemOf(scene(R"({"type": "mesh", "mesh": "open.obj"})"), file),

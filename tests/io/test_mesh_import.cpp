@@ -167,8 +167,8 @@ TEST_CASE("mesh_import: non-finite coordinates are input errors", "[io]") {
     CHECK(problemOf(write(dir.path(), "inf.obj", "v 0 0 0\nv 1 0 0\nv inf 1 0\nf 1 2 3\n"))
               .find("has a non-finite coordinate") != std::string::npos);
     REQUIRE(fs::exists(kModels / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb"));
-    CHECK(problemOf(kModels / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb")
-              .find("non-finite") != std::string::npos);
+    CHECK(problemOf(kModels / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb").find("non-finite") !=
+          std::string::npos);
 }
 
 TEST_CASE("mesh_import: files without triangles are input errors", "[io]") {
@@ -248,9 +248,10 @@ TEST_CASE("mesh_import: OFF files are checked in full before assimp reads them",
 // in CI: 6 inputs, then a timeout). dgv checks PLY headers first and names the line.
 TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]") {
     test::TempDir dir("mesh-import-ply");
-    const std::string head = "ply\nformat ascii 1.0\ncomment tetrahedron\nelement vertex 4\n"
-                             "property float x\nproperty float y\nproperty float z\n"
-                             "element face 4\nproperty list uchar int vertex_indices\n";
+    const std::string head =
+        "ply\nformat ascii 1.0\ncomment tetrahedron\nelement vertex 4\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "element face 4\nproperty list uchar int vertex_indices\n";
     const std::string body = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
     CHECK(import(write(dir.path(), "tet.ply", head + "end_header\n" + body)).triangleCount() == 4);
     std::string crlf;
@@ -262,8 +263,10 @@ TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]
     CHECK(import(kModels / "PLY/cube.ply").triangleCount() == 12);
     // Header lines starting with an unknown word are skipped as assimp skips them: Blender 2.47
     // writes "Created by Blender3D 247 ..." as the third line.
-    const std::string created = "ply\nformat ascii 1.0\nCreated by Blender3D 247 - www.blender.org, source file: \n"
-                                "obj_info num_cols 4\n" + head.substr(head.find("element"));
+    const std::string created =
+        "ply\nformat ascii 1.0\nCreated by Blender3D 247 - www.blender.org, source file: \n"
+        "obj_info num_cols 4\n" +
+        head.substr(head.find("element"));
     CHECK(import(write(dir.path(), "created.ply", created + "end_header\n" + body)).triangleCount() == 4);
     REQUIRE(fs::exists(kModels / "PLY/Wuson.ply"));
     CHECK(import(kModels / "PLY/Wuson.ply").triangleCount() > 3000);
@@ -271,13 +274,15 @@ TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]
     // The fuzzer's input: the header runs into the data and the file ends without end_header.
     CHECK(whereOf(write(dir.path(), "fuzz.ply", head + "en3\n3 0 3 2\n3 1 2 3\n")) ==
           "line 11: unexpected '3' in the PLY header (expected element, property, comment or end_header)");
-    CHECK(whereOf(write(dir.path(), "fuzz2.ply", head + "en3\n")) == "line 10: the PLY header has no 'end_header' line");
+    CHECK(whereOf(write(dir.path(), "fuzz2.ply", head + "en3\n")) ==
+          "line 10: the PLY header has no 'end_header' line");
     CHECK(whereOf(write(dir.path(), "noend.ply", head)) == "line 9: the PLY header has no 'end_header' line");
     // Detected by the magic whatever the extension, as assimp does.
     CHECK(whereOf(write(dir.path(), "noend.mesh", head)) == "line 9: the PLY header has no 'end_header' line");
     CHECK(whereOf(write(dir.path(), "format.ply", "ply\nformat text 1.0\nend_header\n")) ==
           "line 2: unknown PLY format 'text' (expected ascii, binary_little_endian or binary_big_endian)");
-    CHECK(whereOf(write(dir.path(), "type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty real x\nend_header\n0\n")) ==
+    CHECK(whereOf(write(dir.path(), "type.ply",
+                        "ply\nformat ascii 1.0\nelement vertex 1\nproperty real x\nend_header\n0\n")) ==
           "line 4: unknown PLY property type 'real'");
     CHECK(whereOf(write(dir.path(), "orphan.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n")) ==
           "line 3: a PLY property before any element");
@@ -290,10 +295,11 @@ TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]
 TEST_CASE("mesh_import: inside-out parts are turned around, each part on its own", "[io]") {
     test::TempDir dir("mesh-import-orient");
     // Two unit cubes: the first wound inside out, the second (moved by 3 in x) outward.
-    std::string two = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
-                      "v 3 0 0\nv 4 0 0\nv 4 1 0\nv 3 1 0\nv 3 0 1\nv 4 0 1\nv 4 1 1\nv 3 1 1\n"
-                      "f 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n"
-                      "f 9 12 11 10\nf 13 14 15 16\nf 9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\nf 12 9 13 16\n";
+    std::string two =
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+        "v 3 0 0\nv 4 0 0\nv 4 1 0\nv 3 1 0\nv 3 0 1\nv 4 0 1\nv 4 1 1\nv 3 1 1\n"
+        "f 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n"
+        "f 9 12 11 10\nf 13 14 15 16\nf 9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\nf 12 9 13 16\n";
     MeshImportReport report;
     const TriangleMesh m = import(write(dir.path(), "two.obj", two), "", &report);
     CHECK(report.orientation.parts == 2);
@@ -304,10 +310,11 @@ TEST_CASE("mesh_import: inside-out parts are turned around, each part on its own
     CHECK(r.manifold);
     CHECK(r.signedVolume == Approx(2.0).epsilon(1e-12));
     // A cavity (an inward cube inside an outward one) is left as it is: a hollow box.
-    std::string hollow = "v -1 -1 -1\nv 2 -1 -1\nv 2 2 -1\nv -1 2 -1\nv -1 -1 2\nv 2 -1 2\nv 2 2 2\nv -1 2 2\n"
-                         "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
-                         "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
-                         "f 9 10 11 12\nf 13 16 15 14\nf 9 13 14 10\nf 10 14 15 11\nf 11 15 16 12\nf 12 16 13 9\n";
+    std::string hollow =
+        "v -1 -1 -1\nv 2 -1 -1\nv 2 2 -1\nv -1 2 -1\nv -1 -1 2\nv 2 -1 2\nv 2 2 2\nv -1 2 2\n"
+        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+        "f 9 10 11 12\nf 13 16 15 14\nf 9 13 14 10\nf 10 14 15 11\nf 11 15 16 12\nf 12 16 13 9\n";
     const TriangleMesh box = import(write(dir.path(), "hollow.obj", hollow), "", &report);
     CHECK(report.orientation.parts == 2);
     CHECK(report.orientation.flippedParts == 0);

@@ -24,7 +24,8 @@ Image pattern(int w, int h, bool eightBitValues) {
             std::uint16_t* p = img.pixel(x, y);
             const unsigned v[4] = {static_cast<unsigned>(x * 37 + y * 11), static_cast<unsigned>(x * y * 7 + 3),
                                    static_cast<unsigned>(65535 - x * 101 - y), static_cast<unsigned>((x + y) * 997)};
-            for (int c = 0; c < 4; ++c) p[c] = static_cast<std::uint16_t>(eightBitValues ? (v[c] % 256) * 257 : v[c] % 65536);
+            for (int c = 0; c < 4; ++c)
+                p[c] = static_cast<std::uint16_t>(eightBitValues ? (v[c] % 256) * 257 : v[c] % 65536);
         }
     return img;
 }
@@ -132,8 +133,8 @@ TEST_CASE("png: a write that cannot happen throws and leaves nothing behind", "[
     // Tests run as root, so a read-only folder would not stop the write: use a path whose
     // parent is a regular file, a missing folder, and /proc.
     std::ofstream(dir.path() / "file") << "x";
-    for (const fs::path& target : {dir.path() / "file" / "a.png", dir.path() / "missing" / "a.png",
-                                   fs::path("/proc/dgv-test.png")}) {
+    for (const fs::path& target :
+         {dir.path() / "file" / "a.png", dir.path() / "missing" / "a.png", fs::path("/proc/dgv-test.png")}) {
         try {
             writePng(target, img);
             FAIL("expected a RuntimeError for " << target);
@@ -151,15 +152,15 @@ TEST_CASE("png: unreadable, truncated or garbage files are input errors naming t
     test::TempDir dir("png-bad");
     const std::vector<unsigned char> good = encodePng(pattern(32, 32, false));
     const fs::path truncated = dir.path() / "truncated.png";
-    std::ofstream(truncated, std::ios::binary).write(reinterpret_cast<const char*>(good.data()),
-                                                     static_cast<std::streamsize>(good.size() / 2));
+    std::ofstream(truncated, std::ios::binary)
+        .write(reinterpret_cast<const char*>(good.data()), static_cast<std::streamsize>(good.size() / 2));
     const fs::path garbage = dir.path() / "garbage.png";
     std::ofstream(garbage) << "this is not a png file at all, just text that goes on for a while";
     const fs::path corrupt = dir.path() / "corrupt.png";
     std::vector<unsigned char> bad = good;
     bad[40] ^= 0xff;  // inside IHDR or the following chunk: a CRC error
-    std::ofstream(corrupt, std::ios::binary).write(reinterpret_cast<const char*>(bad.data()),
-                                                   static_cast<std::streamsize>(bad.size()));
+    std::ofstream(corrupt, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bad.data()), static_cast<std::streamsize>(bad.size()));
     for (const fs::path& p : {truncated, garbage, corrupt, dir.path() / "missing.png"}) {
         try {
             readPng(p);

@@ -170,7 +170,8 @@ TEST_CASE("scene_json: keyframed camera and crease angle", "[io][scene][render]"
       "camera": {"type": "keyframed", "fov": 30, "keys": [
         {"frame": 1, "eye": [0, 1, 5], "target": [0, 0, 0]},
         {"frame": 24, "eye": [5, 1, 0], "target": [0, 0.5, 0], "fov": 20}]},
-      "render": {"crease_degrees": 60}})", "k.json");
+      "render": {"crease_degrees": 60}})",
+                                   "k.json");
     REQUIRE(s.camera.type == CameraType::Keyframed);
     REQUIRE(s.camera.keys.size() == 2);
     CHECK(s.camera.keys[0].fovDegrees == 30);  // the camera's fov is the keys' default
@@ -214,7 +215,8 @@ TEST_CASE("scene_json: curves (the GLN figures) map onto the settings and are va
       "curves": [ { "name": "a", "ring": { "centre": [1, 2, 3], "normal": [0, 0, 2], "radius": 0.5, "segments": 64 },
                     "color": [1, 1, 1], "tube_radius": 0.1 },
                   { "file": "b.txt", "motion": [[1, [0, 0, 0]], [11, [10, 0, 0]]] } ],
-      "gln": { "seed_tolerances": [4, 0.5] } })", "dir/scene.json");
+      "gln": { "seed_tolerances": [4, 0.5] } })",
+                                   "dir/scene.json");
     REQUIRE(s.curves.size() == 2);
     CHECK(s.objects.empty());
     CHECK(s.curves[0].centre == Vec3(1, 2, 3));
@@ -232,13 +234,20 @@ TEST_CASE("scene_json: curves (the GLN figures) map onto the settings and are va
     const std::pair<std::string, std::string> bad[] = {
         {"{\"curves\": [" + ring + "]}", "curves: expected exactly 2 curves"},
         {"{\"curves\": [" + ring + ", {}]}", "curves[1]: give exactly one of 'file' (a curve file) or 'ring'"},
-        {"{\"curves\": [" + ring + R"(, {"ring": {"radius": -1}}]})", "curves[1].ring.radius: expected a positive number"},
-        {"{\"curves\": [" + ring + R"(, {"ring": {"segments": 2}}]})", "curves[1].ring.segments: expected an integer in [3"},
-        {"{\"curves\": [" + ring + R"(, {"ring": {}, "motion": [[2, [0, 0, 0]], [1, [1, 1, 1]]]}]})", "curves[1].motion[1]: key frames must increase"},
-        {"{\"curves\": [" + ring + R"(, {"ring": {}, "motion": [[2, [0, 0]]]}]})", "curves[1].motion[0]: expected a [frame, [x, y, z]] key"},
-        {"{\"curves\": [" + ring + ", " + ring + R"(], "gln": {"seed_tolerances": [0]}})", "gln.seed_tolerances[0]: expected a number in (0"},
-        {"{\"curves\": [" + ring + ", " + ring + R"(], "objects": [{"primitive": {"type": "sphere"}}]})", "curves: a scene has either objects or curves"},
-        {R"({"curves": [{"name": "x", "ring": {}}, {"name": "x", "ring": {}}]})", "curves[1].name: duplicate curve name"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {"radius": -1}}]})",
+         "curves[1].ring.radius: expected a positive number"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {"segments": 2}}]})",
+         "curves[1].ring.segments: expected an integer in [3"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {}, "motion": [[2, [0, 0, 0]], [1, [1, 1, 1]]]}]})",
+         "curves[1].motion[1]: key frames must increase"},
+        {"{\"curves\": [" + ring + R"(, {"ring": {}, "motion": [[2, [0, 0]]]}]})",
+         "curves[1].motion[0]: expected a [frame, [x, y, z]] key"},
+        {"{\"curves\": [" + ring + ", " + ring + R"(], "gln": {"seed_tolerances": [0]}})",
+         "gln.seed_tolerances[0]: expected a number in (0"},
+        {"{\"curves\": [" + ring + ", " + ring + R"(], "objects": [{"primitive": {"type": "sphere"}}]})",
+         "curves: a scene has either objects or curves"},
+        {R"({"curves": [{"name": "x", "ring": {}}, {"name": "x", "ring": {}}]})",
+         "curves[1].name: duplicate curve name"},
     };
     for (const auto& [text, expected] : bad) {
         INFO(text);
@@ -268,19 +277,25 @@ TEST_CASE("scene_json: material keys map onto the object", "[io][scene]") {
                     .material.pinnedLoad);
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"pinned_load": 1}}]})"),
                Catch::Contains("objects[0].material.pinned_load: expected true or false"));
-    const SceneDesc putty = parseScene(
-        R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 1000, "yield": 0.1}}]})", "dir/scene.json");
+    const SceneDesc putty =
+        parseScene(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 1000, "yield": 0.1}}]})",
+                   "dir/scene.json");
     CHECK(putty.objects[0].material.yield == Approx(0.1));
     // goo cannot yield: it has no rest shape
-    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 0, "yield": 0.1}}]})"),
-               Catch::Contains("objects[0].material.yield: needs a 'stiffness' > 0"));
-    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 5, "yield": -1}}]})"),
-               Catch::Contains("objects[0].material.yield:"));
+    CHECK_THAT(
+        errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 0, "yield": 0.1}}]})"),
+        Catch::Contains("objects[0].material.yield: needs a 'stiffness' > 0"));
+    CHECK_THAT(
+        errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"stiffness": 5, "yield": -1}}]})"),
+        Catch::Contains("objects[0].material.yield:"));
 }
 
-TEST_CASE("scene_json: a body without material settings is jelly, and the presets, wobble_hz, sag and wobbles", "[io][scene]") {
+TEST_CASE("scene_json: a body without material settings is jelly, and the presets, wobble_hz, sag and wobbles",
+          "[io][scene]") {
     auto material = [](const std::string& m) {
-        return parseScene(R"({"objects": [{"primitive": {"type": "sphere"})" + m + "}]}", "dir/scene.json").objects[0].material;
+        return parseScene(R"({"objects": [{"primitive": {"type": "sphere"})" + m + "}]}", "dir/scene.json")
+            .objects[0]
+            .material;
     };
     const MaterialDesc jelly = material("");
     CHECK(jelly.stiffnessFrom == MaterialDesc::StiffnessFrom::Sag);
@@ -302,7 +317,7 @@ TEST_CASE("scene_json: a body without material settings is jelly, and the preset
     CHECK(putty.wobbles == 1);
     const MaterialDesc hz = material(R"(, "material": {"wobble_hz": 2, "damping": 3})");
     CHECK(resolvedStiffness(hz, 123) == Approx(std::pow(4 * 3.141592653589793, 2)));  // size-independent
-    CHECK(resolvedDamping(hz, resolvedStiffness(hz, 1)) == 3);  // damping given: wobbles off
+    CHECK(resolvedDamping(hz, resolvedStiffness(hz, 1)) == 3);                        // damping given: wobbles off
     CHECK(resolvedStiffness(material(R"(, "material": {"stiffness": 300})"), 0.5) == 300);
     CHECK(material(R"(, "material": {"stiffness": 300})").wobbles == 3);  // the preset's damping rule stays
     CHECK(resolvedStiffness(material(R"(, "material": {"preset": "goo", "sag": 0.2})"), 0.5) == Approx(490.5));
@@ -310,8 +325,9 @@ TEST_CASE("scene_json: a body without material settings is jelly, and the preset
                Catch::Contains("objects[0].material.sag: give one of 'stiffness', 'wobble_hz' and 'sag'"));
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"damping": 1, "wobbles": 2}}]})"),
                Catch::Contains("objects[0].material.wobbles: give 'damping' or 'wobbles'"));
-    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"preset": "goo", "wobbles": 2}}]})"),
-               Catch::Contains("objects[0].material.wobbles: needs a stiffness"));
+    CHECK_THAT(
+        errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"preset": "goo", "wobbles": 2}}]})"),
+        Catch::Contains("objects[0].material.wobbles: needs a stiffness"));
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"preset": "clay"}}]})"),
                Catch::Contains("objects[0].material.preset"));
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"wobble_hz": 0}}]})"),

@@ -166,16 +166,23 @@ TEST_CASE("state_file: the scene key ignores what cannot change the dynamics", "
     CHECK(keyOf(R"({"render": {"height": 48, "width": 64}, "camera": {"type": "turntable"},
         "forces": [{"type": "gravity"}], "objects": [{"resolution": 8, "primitive": {"type": "sphere"}, "color": [1, 0, 0]}],
         "frames": {"end": 10, "start": 1}})") == k);
-    CHECK(keyOf(R"({"name": "other", "frames": {"start": 1, "end": 99}, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8, "color": [0, 1, 0]}],
-        "forces": [{"type": "gravity"}], "camera": {"type": "look_at"}, "render": {"width": 640, "height": 480}, "output": {"vdb": true}})") == k);
+    CHECK(
+        keyOf(
+            R"({"name": "other", "frames": {"start": 1, "end": 99}, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8, "color": [0, 1, 0]}],
+        "forces": [{"type": "gravity"}], "camera": {"type": "look_at"}, "render": {"width": 640, "height": 480}, "output": {"vdb": true}})") ==
+        k);
     // The dynamics: another key.
     CHECK(keyOf(R"({"frames": {"start": 1, "end": 10}, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8}],
         "forces": [{"type": "gravity", "strength": 9}]})") != k);
     CHECK(keyOf(R"({"frames": {"start": 2, "end": 10}, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8}],
         "forces": [{"type": "gravity"}]})") != k);
-    CHECK(keyOf(R"({"frames": {"start": 1, "end": 10}, "substeps": 2, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8}],
+    CHECK(
+        keyOf(
+            R"({"frames": {"start": 1, "end": 10}, "substeps": 2, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8}],
         "forces": [{"type": "gravity"}]})") != k);
-    CHECK(keyOf(R"({"frames": {"start": 1, "end": 10}, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8, "material": {"damping": 2}}],
+    CHECK(
+        keyOf(
+            R"({"frames": {"start": 1, "end": 10}, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8, "material": {"damping": 2}}],
         "forces": [{"type": "gravity"}]})") != k);
     // The lattice: another key.
     const fs::path p = dir.path() / "s.json";

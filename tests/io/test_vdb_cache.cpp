@@ -430,7 +430,8 @@ TEST_CASE("vdb_cache: same frame, any thread count, vector kernel or binning, id
             if (auto fg = openvdb::gridPtrCast<openvdb::FloatGrid>(g))
                 requireSameGrid(*fg, *openvdb::gridPtrCast<openvdb::FloatGrid>(b.at(name)));
             else
-                requireSameGrid(*openvdb::gridPtrCast<openvdb::Vec3SGrid>(g), *openvdb::gridPtrCast<openvdb::Vec3SGrid>(b.at(name)));
+                requireSameGrid(*openvdb::gridPtrCast<openvdb::Vec3SGrid>(g),
+                                *openvdb::gridPtrCast<openvdb::Vec3SGrid>(b.at(name)));
         }
     }
 }
@@ -483,7 +484,8 @@ TEST_CASE("vdb_cache: two objects merge in the world grids and keep their own la
     const fs::path p = dir.path() / "two.vdb";
     const VdbWriteReport rep = writeVdbFrame(p, {a.object("left one"), b.object("right")}, VdbFrameInfo{}, s);
     auto grids = byName(readAll(p));
-    for (const char* n : {"density", "vel", "rest", "contact", "position_left_one", "volume_ratio_left_one", "position_right", "volume_ratio_right"})
+    for (const char* n : {"density", "vel", "rest", "contact", "position_left_one", "volume_ratio_left_one",
+                          "position_right", "volume_ratio_right"})
         CHECK(grids.count(n) == 1);
     CHECK(grids.size() == 8);
     CHECK(grids.at("position_right")->metaValue<std::string>("dgv_object") == "right");

@@ -73,8 +73,8 @@ TEST_CASE("camera: the turntable keeps the bounding sphere inside the view", "[r
                 for (int i = 0; i <= 40; ++i) {
                     for (int j = 0; j < 80; ++j) {
                         const Real t = pi * i / 40, p = 2 * pi * j / 80;
-                        const Vec3 q = centre + radius * Vec3(std::sin(t) * std::cos(p), std::cos(t),
-                                                              std::sin(t) * std::sin(p));
+                        const Vec3 q =
+                            centre + radius * Vec3(std::sin(t) * std::cos(p), std::cos(t), std::sin(t) * std::sin(p));
                         const Vec3 n = ndc(clip, q);
                         extent = std::max({extent, std::abs(n.x()), std::abs(n.y())});
                     }

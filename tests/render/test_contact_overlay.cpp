@@ -46,8 +46,8 @@ TEST_CASE("contact highlight: per-point scalars by depth and by time since conta
     const std::vector<int> age{0, 0, 3, ContactHistory::kNever};
     const std::vector<Real> d = contactPointScalar(ContactHighlightMode::Depth, contact, depth, age, 4, 0.01);
     CHECK(d[0] == Approx(0.04).epsilon(1e-15));
-    CHECK(d[1] == 0.01);  // in R with zero depth: still highlighted
-    CHECK(d[2] == -0.01); // outside R: negative, so the edge falls between points
+    CHECK(d[1] == 0.01);   // in R with zero depth: still highlighted
+    CHECK(d[2] == -0.01);  // outside R: negative, so the edge falls between points
     CHECK(d[3] == -0.01);
     const std::vector<Real> r = contactPointScalar(ContactHighlightMode::Recent, contact, depth, age, 4);
     CHECK(r == std::vector<Real>{1.0, 1.0, 0.25, -1.0});
@@ -102,7 +102,8 @@ void writeBallScene(const std::filesystem::path& dir, const std::string& contact
                  "transform": { "translate": [0, 0.52, 0] }, "color": [0.7, 0.2, 0.2],
                  "velocity": [0, -1.5, 0] } ],
   "forces": [ { "type": "gravity" } ],
-  "colliders": [ { "type": "ground", "height": 0 } ],)" << extra << R"(
+  "colliders": [ { "type": "ground", "height": 0 } ],)"
+      << extra << R"(
   "camera": { "type": "look_at", "eye": [0, -1.0, 2.4], "target": [0, 0.35, 0], "fov": 35 },
   "render": { "width": 128, "height": 128, "ground": false)"
       << (contact.empty() ? "" : ", \"contact\": " + contact) << renderExtra << R"( } })";
@@ -126,7 +127,8 @@ bool highlighted(const Image& img, int x, int y) {
 
 }  // namespace
 
-TEST_CASE("contact highlight: a ball pushed onto the ground shows R at the bottom only", "[render][contact][e2e][slow]") {
+TEST_CASE("contact highlight: a ball pushed onto the ground shows R at the bottom only",
+          "[render][contact][e2e][slow]") {
     test::TempDir dir("contact_ball");
     const int frames = 6;
     writeBallScene(dir.path(), R"({ "mode": "depth", "low": [0, 1, 0], "high": [0, 1, 0.5] })", frames);
@@ -150,8 +152,8 @@ TEST_CASE("contact highlight: a ball pushed onto the ground shows R at the botto
                 ++hot;
                 if (y < centre.y()) ++hotAbove;
             }
-    CHECK(hot >= 20);        // a visible patch
-    CHECK(hotAbove == 0);    // nothing above 0.35 m on the front of the ball
+    CHECK(hot >= 20);      // a visible patch
+    CHECK(hotAbove == 0);  // nothing above 0.35 m on the front of the ball
     CHECK(highlighted(img, int(bottom.x()), int(bottom.y())));
     CHECK_FALSE(highlighted(img, int(top.x()), int(top.y())));
     CHECK_FALSE(highlighted(img, int(side.x()), int(side.y())));
@@ -306,8 +308,10 @@ TEST_CASE("overlays: GLN loops are drawn where the camera projects them", "[rend
     };
     for (const ClosedCurve& c : every) {
         const Vec3 m = centroid(c);
-        if (loopFacesPoint(c, cam.eye)) CHECK(m.z() > -0.1);
-        else CHECK(m.normalized().z() < 0.5);
+        if (loopFacesPoint(c, cam.eye))
+            CHECK(m.z() > -0.1);
+        else
+            CHECK(m.normalized().z() < 0.5);
     }
     auto draw = [&](const std::vector<ClosedCurve>& set) {
         FrameScene sc = scene;
@@ -347,7 +351,8 @@ TEST_CASE("overlays: GLN loops are drawn where the camera projects them", "[rend
     CHECK(all > front + front / 10);
     // Pixels beyond the ball's disc and the loops' reach are the background, as without loops.
     const Vec2 corner = pixelOf(Vec3(0.75, 0.75, 0));
-    for (int c = 0; c < 4; ++c) CHECK(img.pixel(int(corner.x()), int(corner.y()))[c] == plain.pixel(int(corner.x()), int(corner.y()))[c]);
+    for (int c = 0; c < 4; ++c)
+        CHECK(img.pixel(int(corner.x()), int(corner.y()))[c] == plain.pixel(int(corner.x()), int(corner.y()))[c]);
 }
 
 namespace {
@@ -355,7 +360,8 @@ namespace {
 /// The ball scene of writeBallScene with `overlays` as render.overlays and GLN detection.
 void writeLoopScene(const std::filesystem::path& dir, const std::string& overlays, int frames) {
     writeBallScene(dir, "", frames, R"(
-  "collision": { "detect": "gln" },)", ", \"overlays\": " + overlays);
+  "collision": { "detect": "gln" },)",
+                   ", \"overlays\": " + overlays);
 }
 
 }  // namespace
@@ -382,7 +388,8 @@ TEST_CASE("overlays: render.overlays.gln_loops draws the rings of the contact se
     CHECK(above == 0);        // only where the ball meets the ground
     // Pixels the loops do not reach are the same as without them.
     const Vec2 top = project(Vec3(0, 0.75, 0.42));
-    for (int c = 0; c < 4; ++c) CHECK(on.pixel(int(top.x()), int(top.y()))[c] == off.pixel(int(top.x()), int(top.y()))[c]);
+    for (int c = 0; c < 4; ++c)
+        CHECK(on.pixel(int(top.x()), int(top.y()))[c] == off.pixel(int(top.x()), int(top.y()))[c]);
 
     // "all": every fine ring, over the whole front of the ball.
     writeLoopScene(dir.path(), R"({ "gln_loops": true, "gln_loop_set": "all", "gln_color": [0, 1, 0] })", 6);
@@ -426,7 +433,8 @@ TEST_CASE("overlays: bad render.overlays settings are one-line input errors", "[
     CHECK(s.render.overlayGlnColour.y() == 0.0);
     CHECK(s.render.overlayGlnColour.z() == Approx(0.21404114).epsilon(1e-6));
     CHECK(s.render.overlayLineWidth == 3.0);
-    const SceneDesc d = parseScene(R"({ "objects": [ { "primitive": { "type": "sphere" } } ] })", dir.path() / "d.json");
+    const SceneDesc d =
+        parseScene(R"({ "objects": [ { "primitive": { "type": "sphere" } } ] })", dir.path() / "d.json");
     CHECK_FALSE(d.render.overlayGlnLoops);
     CHECK(d.render.overlayGlnLoopSet == "contact");
     CHECK(d.render.overlayLineWidth == 1.5);
@@ -462,8 +470,9 @@ TEST_CASE("overlays: lattice dots keep the boundary points facing the eye", "[re
 TEST_CASE("overlays: lattice dots, boundary layer or all points", "[render][overlay][e2e]") {
     test::TempDir dir("lattice_dots");
     auto dotPixels = [&](const std::string& set) {
-        writeBallScene(dir.path(), "", 1, "", R"(, "overlays": { "lattice": true, "lattice_set": ")" + set +
-                                                   R"(", "lattice_color": [0, 1, 0], "point_size": 2 })");
+        writeBallScene(dir.path(), "", 1, "",
+                       R"(, "overlays": { "lattice": true, "lattice_set": ")" + set +
+                           R"(", "lattice_color": [0, 1, 0], "point_size": 2 })");
         REQUIRE(e2e::runDgvIn(dir.path(), "-q render ball.json --out " + set).exitCode == 0);
         const Image img = readPng(dir.path() / set / "ball.0001.png");
         int n = 0;
@@ -499,11 +508,11 @@ TEST_CASE("colliders: a sphere collider is drawn where it is", "[render][e2e]") 
     const Image with = readPng(dir.path() / "a" / "s.0001.png");
     const Image without = readPng(dir.path() / "b" / "s.0001.png");
     const auto centre = with.pixel(48, 48);
-    CHECK(centre[3] == 65535);                 // opaque: something is drawn there
-    CHECK(without.pixel(48, 48)[3] == 0);      // and nothing without the collider
+    CHECK(centre[3] == 65535);             // opaque: something is drawn there
+    CHECK(without.pixel(48, 48)[3] == 0);  // and nothing without the collider
     const int lo = std::min({centre[0], centre[1], centre[2]}), hi = std::max({centre[0], centre[1], centre[2]});
     CHECK(lo > 0);
-    CHECK(hi - lo < 0.15 * hi);                // grey, not the box's red
+    CHECK(hi - lo < 0.15 * hi);  // grey, not the box's red
     // A pixel inside the sphere's silhouette (radius 0.4 at distance 3, fov 50: 13.8 px) but off
     // its centre, and one outside it.
     CHECK(with.pixel(48 + 12, 48)[3] == 65535);
@@ -530,13 +539,14 @@ TEST_CASE("contact highlight: the spread over the body falls off linearly with l
     std::vector<Real> two{0.8, -0.01, -0.01, -0.01, 0.1, -0.01, -0.01};
     spreadPointScalar(lat, two, 3);
     CHECK(two[3] == Approx(std::max(0.8 * 0.25, 0.1 * 0.75)));  // the strong source: 0.2 > 0.075
-    CHECK(two[5] == Approx(0.075));                            // only the weak one reaches
+    CHECK(two[5] == Approx(0.075));                             // only the weak one reaches
     std::vector<Real> none = s;
     spreadPointScalar(lat, none, 0);  // rings 0: unchanged
     CHECK(none == s);
 }
 
-TEST_CASE("contact highlight: collider footprints fall off with the distance to the touching points", "[render][contact]") {
+TEST_CASE("contact highlight: collider footprints fall off with the distance to the touching points",
+          "[render][contact]") {
     const std::vector<Vec3> vertices{Vec3(0, 0, 0), Vec3(0.05, 0, 0), Vec3(0.1, 0, 0), Vec3(0.3, 0, 0)};
     const std::vector<Vec3> points{Vec3(0, 0.0, 0), Vec3(0.1, 0.05, 0), Vec3(5, 5, 5)};
     const std::vector<Real> value{1.0, 0.5, 0.0};  // the third is not highlighted
@@ -558,7 +568,8 @@ TEST_CASE("contact highlight: the automatic colour contrasts with the surface", 
     CHECK(h != Vec3(0.9, 0.05, 0.02));
     auto srgbDistance = [](const Vec3& a, const Vec3& b) {
         return Vec3(encodeSrgb(a.x()) - encodeSrgb(b.x()), encodeSrgb(a.y()) - encodeSrgb(b.y()),
-                    encodeSrgb(a.z()) - encodeSrgb(b.z())).norm();
+                    encodeSrgb(a.z()) - encodeSrgb(b.z()))
+            .norm();
     };
     CHECK(srgbDistance(h, putty) > 2 * srgbDistance(Vec3(0.9, 0.05, 0.02), putty));
 }
@@ -593,7 +604,8 @@ TEST_CASE("render: ground marks colour the floor where they lie and nowhere else
     Real sx0 = 1e9, sx1 = -1e9, sy0 = 1e9, sy1 = -1e9;
     for (int k = 0; k < 64; ++k) {
         const Real a = 2 * 3.14159265358979 * k / 64;
-        const Eigen::Vector4d c = clip * Eigen::Vector4d(mark.radius * std::cos(a), 0, mark.z + mark.radius * std::sin(a), 1);
+        const Eigen::Vector4d c =
+            clip * Eigen::Vector4d(mark.radius * std::cos(a), 0, mark.z + mark.radius * std::sin(a), 1);
         const Real px = (c.x() / c.w() * 0.5 + 0.5) * rs.width, py = (0.5 - c.y() / c.w() * 0.5) * rs.height;
         sx0 = std::min(sx0, px), sx1 = std::max(sx1, px), sy0 = std::min(sy0, py), sy1 = std::max(sy1, py);
     }
@@ -625,7 +637,8 @@ TEST_CASE("render.pins draws a pinned body's pinned points and nothing else", "[
                        "color": [0.3, 0.6, 0.85], "pin": {"min": [-0.5, -1, -1], "max": [-0.3, 1, 1]}}],
           "forces": [{"type": "gravity"}],
           "camera": {"type": "look_at", "eye": [0, 0.4, 2], "target": [0, 0, 0], "fov": 40},
-          "render": {"width": 160, "height": 90)" + pins + "}}";
+          "render": {"width": 160, "height": 90)" +
+               pins + "}}";
     };
     std::ofstream(dir.path() / "on.json") << scene(R"(, "pins": true)");
     std::ofstream(dir.path() / "off.json") << scene("");

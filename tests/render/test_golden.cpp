@@ -256,7 +256,7 @@ TEST_CASE("golden: a deliberately changed scene fails the comparison", "[render]
     REQUIRE(fs::exists(ref));
     test::TempDir scratch("golden-changed");
     for (int variant = 0; variant < 2; ++variant) {
-        GoldenScene g = primitiveTurntable(variant == 0 ? 10.0 : 0.0);  // box turned 10 degrees
+        GoldenScene g = primitiveTurntable(variant == 0 ? 10.0 : 0.0);      // box turned 10 degrees
         if (variant == 1) g.scene.meshes[1].colour = Vec3(0.25, 0.7, 0.4);  // or the torus recoloured
         g.name = "changed_" + std::to_string(variant);
         const Image got = renderGolden(g, scratch.path()).decoded;

@@ -27,8 +27,7 @@ inline Lattice sphereLattice(Real radius, Real spacing = 1) {
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= radius)
-                    m[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
+                if ((Vec3(i, j, k) - c).norm() <= radius) m[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
     return buildLattice(Vec3::Zero(), spacing, dims, m);
 }
 
@@ -52,8 +51,7 @@ inline MapFn bendMap(Real curvature) {
 inline MapFn stretchMap(Real amount) {
     // Non-uniform stretch: x' = x + a x^2, y' = y (1 + a z), z' = z + a sin(x).
     return [=](const Vec3& s) {
-        return Vec3(s.x() + amount * s.x() * s.x(), s.y() * (1 + amount * s.z()),
-                    s.z() + amount * std::sin(2 * s.x()));
+        return Vec3(s.x() + amount * s.x() * s.x(), s.y() * (1 + amount * s.z()), s.z() + amount * std::sin(2 * s.x()));
     };
 }
 
@@ -68,7 +66,8 @@ inline std::vector<Mat3> framesOf(const GeometricState& st) {
     std::vector<Mat3> f(static_cast<std::size_t>(st.size()));
     for (Index p = 0; p < st.size(); ++p)
         for (int a = 0; a < 3; ++a)
-            f[static_cast<std::size_t>(p)].col(a) = st.tangent[static_cast<std::size_t>(a)][static_cast<std::size_t>(p)];
+            f[static_cast<std::size_t>(p)].col(a) =
+                st.tangent[static_cast<std::size_t>(a)][static_cast<std::size_t>(p)];
     return f;
 }
 

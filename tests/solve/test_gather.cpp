@@ -149,8 +149,7 @@ TEST_CASE("gather: the literal (summed) eq 26 diverges, the averaged one converg
     CHECK(reconstructPositions(pr.lat, pr.e, pr.frames, pr.pins, s, y).converged);
 }
 
-TEST_CASE("gather: SOR with w = 1 is red-black Gauss-Seidel in both the standard and the seed form",
-          "[solve]") {
+TEST_CASE("gather: SOR with w = 1 is red-black Gauss-Seidel in both the standard and the seed form", "[solve]") {
     const Problem pr = twistedBall(3);
     const std::vector<unsigned char> fixed = fixedPositionMask(pr.lat, pr.pins);
     std::vector<Vec3> a(static_cast<std::size_t>(pr.lat.size()), Vec3::Zero()), b = a;
@@ -204,8 +203,7 @@ TEST_CASE("gather: a wall corrects points between sweeps and holds at the end", 
     }
 }
 
-TEST_CASE("production solver: multigrid CG matches Cholesky with several pins, warm starts, threads",
-          "[solve]") {
+TEST_CASE("production solver: multigrid CG matches Cholesky with several pins, warm starts, threads", "[solve]") {
     Problem pr = twistedBall(6);
     // three pinned points (positions only beyond the first): a Dirichlet problem, not a gauge
     for (Index p : {Index(0), pr.lat.size() - 1}) {
@@ -316,8 +314,8 @@ TEST_CASE("multigrid: preconditioned CG iterations stay flat as the lattice grow
         for (std::size_t i = 0; i < x.size(); ++i) d = std::max(d, std::abs(x[i] - y[i]));
         CHECK(d < 1e-6);
         if (verbose())
-            std::printf("radius %.0f (%lld points, %d levels): multigrid CG %d, Jacobi CG %d iterations\n",
-                        radius, (long long)lat.size(), mg.levels(), r1.iterations, r2.iterations);
+            std::printf("radius %.0f (%lld points, %d levels): multigrid CG %d, Jacobi CG %d iterations\n", radius,
+                        (long long)lat.size(), mg.levels(), r1.iterations, r2.iterations);
         ++k;
     }
     CHECK(mgIts[1] <= mgIts[0] + 4);

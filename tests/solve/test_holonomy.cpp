@@ -138,8 +138,7 @@ TEST_CASE("holonomy: closed loops are the identity in a flat volume", "[solve]")
             run(lat, loop, kMinusK, 4 * m);
             defect[level] = (pathHolonomy(lat, st.christoffel, loop) - Mat3::Identity()).norm();
         }
-        if (verbose())
-            std::printf("twist loop defect: %.3e %.3e %.3e\n", defect[0], defect[1], defect[2]);
+        if (verbose()) std::printf("twist loop defect: %.3e %.3e %.3e\n", defect[0], defect[1], defect[2]);
         REQUIRE(defect[0] < 1e-2);
         REQUIRE(rate(defect[0], defect[1]) > 1.8);
         REQUIRE(rate(defect[1], defect[2]) > 1.8);
@@ -196,7 +195,10 @@ TEST_CASE("holonomy: eq 19 reproduces a known field along a path", "[solve]") {
         err[level] = e / scale;
         // The homogeneous part is exact for this constant, commuting connection.
         const Mat3 h = pathHolonomy(lat, chr, path);
-        const Vec3 ds = (lat.coords[static_cast<std::size_t>(path.back())] - lat.coords[static_cast<std::size_t>(path.front())]).cast<Real>() / Real(m);
+        const Vec3 ds =
+            (lat.coords[static_cast<std::size_t>(path.back())] - lat.coords[static_cast<std::size_t>(path.front())])
+                .cast<Real>() /
+            Real(m);
         REQUIRE((h - Mat3((-k.cwiseProduct(ds)).array().exp().matrix().asDiagonal())).norm() < 1e-13);
     }
     if (verbose()) std::printf("eq 19 path error: %.3e %.3e %.3e\n", err[0], err[1], err[2]);

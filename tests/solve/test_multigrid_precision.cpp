@@ -64,9 +64,10 @@ std::vector<Real> rhs(Index rows, int cols, int used) {
 
 }  // namespace
 
-TEST_CASE("multigrid: the float V-cycle keeps CG's iterations and accuracy, unit rows and a zero "
-          "4th column change no bit, threads change no bit",
-          "[solve]") {
+TEST_CASE(
+    "multigrid: the float V-cycle keeps CG's iterations and accuracy, unit rows and a zero "
+    "4th column change no bit, threads change no bit",
+    "[solve]") {
     std::vector<Vec3i> coords;
     const SparseRows A = ballLaplacian(14, coords);  // ~11k rows: many parallel blocks
     REQUIRE(A.rows > 10000);
@@ -105,10 +106,10 @@ TEST_CASE("multigrid: the float V-cycle keeps CG's iterations and accuracy, unit
     REQUIRE(rF12.converged);
     CHECK(rF12.iterations <= rD12.iterations + 1);
     if (verbose())
-        std::printf("%lld rows: double cycle %d / %d iterations (1e-10 / 1e-12), float %d / %d; "
-                    "max |x_float - x_double| %.2e of %.2e\n",
-                    (long long)A.rows, rCopy.iterations, rD12.iterations, rF.iterations,
-                    rF12.iterations, diff, size);
+        std::printf(
+            "%lld rows: double cycle %d / %d iterations (1e-10 / 1e-12), float %d / %d; "
+            "max |x_float - x_double| %.2e of %.2e\n",
+            (long long)A.rows, rCopy.iterations, rD12.iterations, rF.iterations, rF12.iterations, diff, size);
 
     // a zero 4th column (the position solve's layout) leaves the other three bit for bit
     const std::vector<Real> b4 = rhs(A.rows, 4, 3);

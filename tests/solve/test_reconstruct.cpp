@@ -141,9 +141,8 @@ TEST_CASE("reconstruct: round trips through finite-difference connections conver
             for (int level = 0; level < 3; ++level) r[level] = roundTrip(c.phi, 8 << level, m);
             if (verbose())
                 std::printf("%s %s: frames %.3e %.3e %.3e  positions %.3e %.3e %.3e\n", c.name,
-                            m == ReconstructMethod::Path ? "path" : "least squares", r[0].frameError,
-                            r[1].frameError, r[2].frameError, r[0].positionError,
-                            r[1].positionError, r[2].positionError);
+                            m == ReconstructMethod::Path ? "path" : "least squares", r[0].frameError, r[1].frameError,
+                            r[2].frameError, r[0].positionError, r[1].positionError, r[2].positionError);
             for (const RoundTrip& t : r) REQUIRE(t.positions.converged);
             REQUIRE(r[0].positionError < 2e-2);
             REQUIRE(rate(r[0].positionError, r[1].positionError) > 1.8);
@@ -160,8 +159,14 @@ TEST_CASE("reconstruct: connectionChangeSteps matches transports, tree frames an
     const Lattice lat = sphereLattice(6, 0.1);
     GeometricState s0, s1;
     const Vec3 c(0.75, 0.75, 0.75);
-    computeGeometricState(lat, mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.2 * Vec3(-(x - c).y(), (x - c).x(), 0) * (x - c).z(); }), s0);
-    computeGeometricState(lat, mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.1 * Vec3((x - c).z() * (x - c).z(), 0, (x - c).x()); }), s1);
+    computeGeometricState(
+        lat,
+        mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.2 * Vec3(-(x - c).y(), (x - c).x(), 0) * (x - c).z(); }),
+        s0);
+    computeGeometricState(
+        lat,
+        mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.1 * Vec3((x - c).z() * (x - c).z(), 0, (x - c).x()); }),
+        s1);
     std::vector<Mat3> frames = framesOf(s0);
     const std::vector<Pin> pins = centrePins(lat, mapped(lat, [](const Vec3& x) -> Vec3 { return x; }), frames);
     std::vector<unsigned char> roots(static_cast<std::size_t>(lat.size()), 0);
@@ -175,7 +180,8 @@ TEST_CASE("reconstruct: connectionChangeSteps matches transports, tree frames an
     const EdgeTransports e0 = computeEdgeTransports(lat, s0.christoffel);
     const EdgeTransports e1 = computeEdgeTransports(lat, s1.christoffel);
     std::vector<Pin> framePins;
-    for (const Pin& pin : pins) framePins.push_back(Pin{pin.point, Vec3::Zero(), frames[static_cast<std::size_t>(pin.point)], true, true});
+    for (const Pin& pin : pins)
+        framePins.push_back(Pin{pin.point, Vec3::Zero(), frames[static_cast<std::size_t>(pin.point)], true, true});
     std::vector<Mat3> f0 = frames, f1 = frames;
     integrateFramesAlongTree(lat, e0, framePins, f0);
     integrateFramesAlongTree(lat, e1, framePins, f1);
@@ -198,8 +204,10 @@ TEST_CASE("reconstruct: connectionChangeSteps matches transports, tree frames an
     REQUIRE(worst < 1e-14);
 }
 
-TEST_CASE("reconstruct: connectionChangeSteps' frame sweeps ask nothing of an unchanged connection and fit the frames "
-          "to every edge better than the tree", "[solve]") {
+TEST_CASE(
+    "reconstruct: connectionChangeSteps' frame sweeps ask nothing of an unchanged connection and fit the frames "
+    "to every edge better than the tree",
+    "[solve]") {
     // The sweeps (docs/math.md, "Frames that do not depend on the tree"): each point but the
     // root takes the mean of its neighbours' frames carried across the edges, the least-squares
     // frame given its neighbours (to first order in S; Gauss-Seidel); so the frames' misfit over
@@ -209,7 +217,10 @@ TEST_CASE("reconstruct: connectionChangeSteps' frame sweeps ask nothing of an un
     const Lattice lat = sphereLattice(6, 0.1);
     GeometricState s0, s1;
     const Vec3 c(0.75, 0.75, 0.75);
-    computeGeometricState(lat, mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.2 * Vec3(-(x - c).y(), (x - c).x(), 0) * (x - c).z(); }), s0);
+    computeGeometricState(
+        lat,
+        mapped(lat, [&](const Vec3& x) -> Vec3 { return x + 0.2 * Vec3(-(x - c).y(), (x - c).x(), 0) * (x - c).z(); }),
+        s0);
     s1 = s0;
     for (Index p = 0; p < lat.size(); ++p) {
         const Vec3 d = lat.restPosition(p) - c;
@@ -236,7 +247,9 @@ TEST_CASE("reconstruct: connectionChangeSteps' frame sweeps ask nothing of an un
             for (int slot = 1; slot < 6; slot += 2) {
                 const Index q = lat.neighbours[static_cast<std::size_t>(p)][static_cast<std::size_t>(slot)];
                 if (q == kNoPoint) continue;
-                sum += (F[static_cast<std::size_t>(q)] - F[static_cast<std::size_t>(p)] * frameTransport(lat, e1, p, slot)).squaredNorm();
+                sum +=
+                    (F[static_cast<std::size_t>(q)] - F[static_cast<std::size_t>(p)] * frameTransport(lat, e1, p, slot))
+                        .squaredNorm();
             }
         return sum;
     };
@@ -245,8 +258,10 @@ TEST_CASE("reconstruct: connectionChangeSteps' frame sweeps ask nothing of an un
         connectionChangeSteps(lat, tree, s0.christoffel, s1.christoffel, frames, work, forward, sweeps);
         const Real m = misfit(work.frames1);
         if (verbose()) std::printf("frame sweeps %d: misfit over all edges %.4e\n", sweeps, m);
-        if (sweeps == 0) treeMisfit = m;
-        else CHECK(m < last);  // measured 7.4e-3 (the tree), 5.8e-3, 4.5e-3, 3.2e-3
+        if (sweeps == 0)
+            treeMisfit = m;
+        else
+            CHECK(m < last);         // measured 7.4e-3 (the tree), 5.8e-3, 4.5e-3, 3.2e-3
         for (const Pin& pin : pins)  // the root keeps its frame
             REQUIRE(work.frames1[static_cast<std::size_t>(pin.point)] == frames[static_cast<std::size_t>(pin.point)]);
         last = m;

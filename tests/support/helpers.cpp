@@ -15,9 +15,7 @@ constexpr int kTraps = FE_INVALID | FE_DIVBYZERO | FE_OVERFLOW;
 
 void enableFpTraps() { feenableexcept(kTraps); }
 
-FpTrapsOff::FpTrapsOff() : mSaved(fegetexcept()) {
-    fedisableexcept(kTraps);
-}
+FpTrapsOff::FpTrapsOff() : mSaved(fegetexcept()) { fedisableexcept(kTraps); }
 FpTrapsOff::~FpTrapsOff() {
     feclearexcept(FE_ALL_EXCEPT);
     feenableexcept(mSaved);
