@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>  // cross products and rotations are used everywhere; an undeclared
                            // cross() compiles but fails to link
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 
@@ -15,6 +16,8 @@ namespace dgv {
 
 using Real = double;
 using Index = std::int64_t;
+/// An Index as a std::vector subscript (Index is signed; the containers' sizes are not).
+inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
 
 using Vec2 = Eigen::Matrix<Real, 2, 1>;
 using Vec3 = Eigen::Matrix<Real, 3, 1>;

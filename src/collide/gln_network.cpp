@@ -13,8 +13,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
-
 /// Outward rest normal of a boundary point: away from the centroid of the material points in
 /// the 5×5×5 block around it (voxel units); the missing 6-neighbour directions if that is zero.
 Vec3 restNormal(const Lattice& lat, Index p) {

@@ -10,9 +10,7 @@
 
 namespace dgv {
 
-namespace {
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-}  // namespace
+namespace {}  // namespace
 
 ConnectionField deformedConnection(const Lattice& lat, const GeometricState& rest, const std::vector<Mat3>& M) {
     const Index n = lat.size();

@@ -5,9 +5,7 @@
 
 namespace dgv {
 
-namespace {
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-}  // namespace
+namespace {}  // namespace
 
 std::vector<Vec3> displacementCoefficients(const GeometricState& rest, const std::vector<Vec3>& positions) {
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), rest.size());

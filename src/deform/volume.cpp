@@ -41,8 +41,6 @@ struct VolumeProjectionCache::Impl {
 
 namespace {
 
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-
 inline Vec3i cornerOffset(int k) { return Vec3i(k & 1, (k >> 1) & 1, (k >> 2) & 1); }
 
 /// The trilinear cell in centred coordinates s in [-1/2, 1/2]^3 (corner k at s_a = ±1/2 by its

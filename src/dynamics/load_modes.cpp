@@ -12,8 +12,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
-
 /// Σ a_i b_i over cells (deterministic: parallelReduce's fixed blocks).
 Real dot(const std::vector<Real>& a, const std::vector<Real>& b) {
     return parallelReduce(

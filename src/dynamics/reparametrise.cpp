@@ -20,7 +20,6 @@
 namespace dgv {
 
 namespace {
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
 
 // The six tetrahedra of a cell along its diagonal from corner 0 to corner 7 (corner k at offset
 // (k & 1, (k >> 1) & 1, (k >> 2) & 1)): one per order of the three axes. Neighbouring cells

@@ -35,8 +35,6 @@ struct ReconstructWork {
 
 namespace {
 
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
-
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 

@@ -11,8 +11,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-
 /// Nearest material point to continuous lattice coordinate u (Euclidean; ties: smallest id).
 Index nearestPoint(const Lattice& lat, const Vec3& u) {
     const Vec3i& dims = lat.dims;

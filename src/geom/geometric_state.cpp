@@ -11,8 +11,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-
 /// Neighbour of p in `slot`, or kNoPoint (also when p itself is kNoPoint).
 inline Index step(const Lattice& lat, Index p, int slot) {
     return p == kNoPoint ? kNoPoint : lat.neighbours[at(p)][static_cast<std::size_t>(slot)];

@@ -11,8 +11,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
-
 /// cof(F) n0 with F's columns the tangents / h: n0x (f2 × f3) + n0y (f3 × f1) + n0z (f1 × f2).
 Vec3 cofactorTimes(const GeometricState& state, std::size_t q, Real invH, const Vec3& n0) {
     const Vec3 f1 = state.tangent[0][q] * invH, f2 = state.tangent[1][q] * invH, f3 = state.tangent[2][q] * invH;

@@ -20,9 +20,7 @@
 
 namespace dgv {
 
-namespace {
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
-}  // namespace
+namespace {}  // namespace
 
 Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>& lattices, bool always)
     : mScene(scene) {

@@ -12,8 +12,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-
 int neighbourCount(const Lattice& lat, Index p) {
     int n = 0;
     for (Index q : lat.neighbours[at(p)]) n += q != kNoPoint;

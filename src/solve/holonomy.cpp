@@ -14,8 +14,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-
 PointConnection pointConnection(const std::array<std::vector<Mat3>, 3>& christoffel, Index p) {
     return {christoffel[0][at(p)], christoffel[1][at(p)], christoffel[2][at(p)]};
 }

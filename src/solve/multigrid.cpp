@@ -18,7 +18,6 @@ namespace dgv {
 namespace {
 
 using SpMat = Eigen::SparseMatrix<Real, Eigen::RowMajor, int>;
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
 constexpr int kMaxCols = 4;
 constexpr Index kRowGrain = 1024;
 

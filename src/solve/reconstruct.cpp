@@ -12,8 +12,6 @@ namespace dgv {
 
 namespace {
 
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-
 double since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

@@ -11,9 +11,7 @@
 
 namespace dgv {
 
-namespace {
-inline std::size_t at(Index p) { return static_cast<std::size_t>(p); }
-}  // namespace
+namespace {}  // namespace
 
 struct PoissonSolver::Impl {
     Index points = 0;

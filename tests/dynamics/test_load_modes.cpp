@@ -23,7 +23,6 @@ using dgv::test::gravityField;
 
 namespace {
 
-std::size_t at(Index p) { return static_cast<std::size_t>(p); }
 bool verbose() { return std::getenv("DGV_TEST_VERBOSE") != nullptr; }
 
 /// A bar 17 x 5 x 5 points at 0.05 m held by its end plane x = 0 (a cantilever).

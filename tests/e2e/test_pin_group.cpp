@@ -24,8 +24,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-inline std::size_t at(Index i) { return static_cast<std::size_t>(i); }
-
 /// A column 0.4 x 0.8 x 0.4 m standing on y = 0: its bottom face in group "base", the rest in
 /// group "sides" (closed, outward faces).
 const char* kColumnObj = R"(v -0.2 0 -0.2
