@@ -10,8 +10,6 @@
 
 namespace dgv {
 
-namespace {}  // namespace
-
 ConnectionField deformedConnection(const Lattice& lat, const GeometricState& rest, const std::vector<Mat3>& M) {
     const Index n = lat.size();
     DGV_CHECK_EQ(static_cast<Index>(M.size()), n);

@@ -5,8 +5,6 @@
 
 namespace dgv {
 
-namespace {}  // namespace
-
 std::vector<Vec3> displacementCoefficients(const GeometricState& rest, const std::vector<Vec3>& positions) {
     DGV_CHECK_EQ(static_cast<Index>(positions.size()), rest.size());
     std::vector<Vec3> eps(positions.size());

@@ -20,8 +20,6 @@
 
 namespace dgv {
 
-namespace {}  // namespace
-
 Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>& lattices, bool always)
     : mScene(scene) {
     DGV_CHECK_EQ(lattices.size(), scene.objects.size());

@@ -11,8 +11,6 @@
 
 namespace dgv {
 
-namespace {}  // namespace
-
 struct PoissonSolver::Impl {
     Index points = 0;
     std::vector<unsigned char> fixed;
