@@ -37,4 +37,7 @@ inline double encodeSrgb(double x) {
     return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
 }
 
+/// Its inverse, encoded [0,1] -> linear [0,1] (scene colours are given encoded).
+inline double decodeSrgb(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
 }  // namespace dgv

@@ -1,6 +1,7 @@
 #include "io/scene_json.hpp"
 
 #include "base/errors.hpp"
+#include "base/image.hpp"
 #include "io/mesh_import.hpp"
 #include "io/vdb_read.hpp"
 
@@ -156,7 +157,7 @@ public:
     Vec3 color(const std::string& key, const Vec3& defLinear) {
         if (!has(key)) return defLinear;
         Vec3 c = vec3(key, Vec3::Zero(), 0.0, 1.0);
-        return Vec3(srgbToLinear(c.x()), srgbToLinear(c.y()), srgbToLinear(c.z()));
+        return Vec3(decodeSrgb(c.x()), decodeSrgb(c.y()), decodeSrgb(c.z()));
     }
 
     /// Calls f(reader) for the sub-object at `key` if present.

@@ -43,8 +43,6 @@ Vec3 CurveDesc::offsetAt(Real frame) const {
     return motion.back().second;
 }
 
-Real srgbToLinear(Real c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
-
 }  // namespace dgv
 
 namespace dgv {

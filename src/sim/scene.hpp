@@ -286,7 +286,5 @@ struct SceneDesc {
     OutputDesc output;
 };
 
-/// sRGB-encoded component (0..1) to linear, with the exact sRGB curve.
-Real srgbToLinear(Real c);
 
 }  // namespace dgv
