@@ -286,5 +286,4 @@ struct SceneDesc {
     OutputDesc output;
 };
 
-
 }  // namespace dgv
