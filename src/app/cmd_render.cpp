@@ -201,13 +201,9 @@ int runRender(const RenderOptions& options) {
 
     // Build every object before anything is written: bad meshes or settings fail up front.
     resolvePinGroups(scene);
-    std::vector<BuiltObject> objects;
+    std::vector<BuiltObject> objects = buildObjects(scene, scene.output.vdb);
     Box3 bounds;
-    for (int i = 0; i < static_cast<int>(scene.objects.size()); ++i) {
-        objects.push_back(buildObject(scene, i));
-        bounds.extend(meshBounds(objects.back().restMesh));
-        logInfo(describe(objects.back()));
-    }
+    for (const BuiltObject& o : objects) bounds.extend(meshBounds(o.restMesh));
 
     // The dynamics (a scene with forces or initial velocities): frames are sequential in time,
     // so a range A-B simulates from the scene's first frame; stats.csv is rewritten each frame.

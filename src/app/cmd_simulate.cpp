@@ -31,11 +31,7 @@ int runSimulate(const SimulateOptions& options) {
     if (!options.mesh.empty()) scene.output.mesh = options.mesh;
 
     resolvePinGroups(scene);
-    std::vector<BuiltObject> objects;
-    for (int i = 0; i < static_cast<int>(scene.objects.size()); ++i) {
-        objects.push_back(buildObject(scene, i));
-        logInfo(describe(objects.back()));
-    }
+    std::vector<BuiltObject> objects = buildObjects(scene, vdb);
     DynamicsRun dynamics(scene, objects, vdb);
     dynamics.setFirstWrittenFrame(first);
     if (!dynamics.active())

@@ -1,6 +1,7 @@
 #include "app/scene_build.hpp"
 
 #include "base/errors.hpp"
+#include "base/progress.hpp"
 #include "geom/primitives.hpp"
 #include "io/mesh_import.hpp"
 
@@ -59,7 +60,7 @@ void resolvePinGroups(SceneDesc& scene) {
     }
 }
 
-BuiltObject buildObject(const SceneDesc& scene, int index) {
+BuiltObject buildObject(const SceneDesc& scene, int index, std::size_t memoryBudget, double bytesPerPoint) {
     const ObjectDesc& desc = scene.objects[static_cast<std::size_t>(index)];
     BuiltObject obj;
     obj.name = desc.name;
@@ -78,7 +79,10 @@ BuiltObject buildObject(const SceneDesc& scene, int index) {
                                      std::string(1, "xyz"[a]) + " is 0), so it bounds no volume; give it a thickness");
     }
     try {
-        obj.lattice = voxelise(obj.restMesh, desc.voxel, &obj.voxelReport);
+        VoxeliseSettings voxel = desc.voxel;
+        if (memoryBudget > 0) voxel.memoryBudgetBytes = memoryBudget;
+        voxel.bytesPerPoint = bytesPerPoint;
+        obj.lattice = voxelise(obj.restMesh, voxel, &obj.voxelReport);
     } catch (const InputError& e) {
         throw InputError(scene.path, "objects[" + std::to_string(index) + "]." + e.where(), e.problem());
     }
@@ -92,6 +96,34 @@ BuiltObject buildObject(const SceneDesc& scene, int index) {
     computeGeometricState(obj.lattice, restPositions(obj.lattice), obj.state);
     obj.embedding = embedVertices(obj.lattice, obj.restMesh.vertices);
     return obj;
+}
+
+std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb) {
+    // As sim/simulation decides which bodies it builds: any force or initial motion, or a cache.
+    bool simulated = vdb || !scene.forces.empty();
+    for (const ObjectDesc& o : scene.objects)
+        if (o.deformable && (o.velocity.squaredNorm() > 0 || o.spinDegrees.squaredNorm() > 0)) simulated = true;
+    const std::size_t budget = memoryBudgetBytes();
+    std::size_t used = 0;
+    std::vector<BuiltObject> objects;
+    for (int i = 0; i < static_cast<int>(scene.objects.size()); ++i) {
+        const ObjectDesc& desc = scene.objects[static_cast<std::size_t>(i)];
+        const double perPoint = simulated && desc.deformable
+                                    ? (vdb ? kSimulatedVdbBytesPerPoint : kSimulatedBytesPerPoint)
+                                    : kLatticeBytesPerPoint;
+        const std::size_t left = used < budget ? budget - used : 1;
+        try {
+            objects.push_back(buildObject(scene, i, left, perPoint));
+        } catch (const InputError& e) {
+            if (used == 0 || e.problem().find("budget") == std::string::npos) throw;
+            throw InputError(e.input(), e.where(),
+                             e.problem() + " (the objects before it take " + std::to_string(used >> 20) + " MiB of " +
+                                 std::to_string(budget >> 20) + " MiB)");
+        }
+        used += static_cast<std::size_t>(perPoint * double(objects.back().lattice.size()));
+        logInfo(describe(objects.back()));
+    }
+    return objects;
 }
 
 std::string describe(const BuiltObject& o) {

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,6 +15,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <numeric>
@@ -80,11 +83,40 @@ std::string bytesText(double bytes) {
     return os.str();
 }
 
-std::size_t defaultBudget() {
-    const long pages = sysconf(_SC_PHYS_PAGES), pageSize = sysconf(_SC_PAGE_SIZE);
-    if (pages <= 0 || pageSize <= 0) return std::size_t(8) << 30;
-    return static_cast<std::size_t>(pages) / 4 * 3 * static_cast<std::size_t>(pageSize);
+/// A cgroup limit file's value in bytes, or 0 where it is absent or "max" (no limit).
+std::size_t cgroupLimit(const char* path) {
+    std::ifstream in(path);
+    std::string text;
+    if (!(in >> text) || text == "max") return 0;
+    char* end = nullptr;
+    const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
+    // cgroup v1 writes "no limit" as a huge page-rounded number
+    if (end == text.c_str() || *end != '\0' || v == 0 || v >= (1ull << 62)) return 0;
+    return static_cast<std::size_t>(v);
 }
+
+}  // namespace
+
+std::size_t memoryBudgetBytes() {
+    const long pages = sysconf(_SC_PHYS_PAGES), pageSize = sysconf(_SC_PAGE_SIZE);
+    std::size_t budget = pages > 0 && pageSize > 0
+                             ? static_cast<std::size_t>(pages) / 4 * 3 * static_cast<std::size_t>(pageSize)
+                             : std::size_t(8) << 30;
+    // Less what the program takes besides its lattices. Measured with `dgv simulate` on 2 cores:
+    // about 90 MB resident (libraries, allocator, the first frame's work), and 250-330 MB of address
+    // space beyond its resident set (thread stacks and allocator arenas), which RLIMIT_AS counts.
+    constexpr std::size_t kResidentBase = std::size_t(128) << 20, kAddressBase = std::size_t(320) << 20;
+    auto less = [](std::size_t limit, std::size_t base) { return limit > 2 * base ? limit - base : limit / 2; };
+    rlimit as{};
+    if (getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY)
+        budget = std::min(budget, less(static_cast<std::size_t>(as.rlim_cur), kAddressBase));
+    for (const char* file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"})
+        if (const std::size_t limit = cgroupLimit(file); limit > 0)
+            budget = std::min(budget, less(limit, kResidentBase));
+    return budget;
+}
+
+namespace {
 
 // ---------------------------------------------------------------------------------------------
 // Solid angles and the winding-number tree (Barill et al. 2018, first-order far field).
@@ -427,13 +459,13 @@ Real latticeSpacing(const Box3& bounds, const VoxeliseSettings& settings) {
     return longest / settings.resolution;
 }
 
-std::size_t estimateLatticeBytes(Index gridCells, Index points) {
+std::size_t estimateLatticeBytes(Index gridCells, Index points, double bytesPerPoint) {
     // Per point: coords 12, neighbours 48, component 4, position 24, 3 tangents 72, metric 72,
     // inverse metric 72, 3 duals 72, 6 second derivatives 144, Christoffel 3 Mat3 216, its last
     // change 216, previous tangents 72: 1024 bytes. Per cell: pointOfCell 8.
-    constexpr double kPerPoint = 1024, kPerCell = 8;
+    constexpr double kPerCell = 8;
     const double bytes =
-        kPerPoint * double(std::max<Index>(points, 0)) + kPerCell * double(std::max<Index>(gridCells, 0));
+        bytesPerPoint * double(std::max<Index>(points, 0)) + kPerCell * double(std::max<Index>(gridCells, 0));
     if (bytes >= double(std::numeric_limits<std::size_t>::max())) return std::numeric_limits<std::size_t>::max();
     return static_cast<std::size_t>(bytes);
 }
@@ -477,7 +509,7 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
 
     // Memory, before anything proportional to the grid is allocated: the lattice with its
     // geometric state, plus this function's own 5 bytes per cell (counts and mask).
-    const std::size_t budget = settings.memoryBudgetBytes > 0 ? settings.memoryBudgetBytes : defaultBudget();
+    const std::size_t budget = settings.memoryBudgetBytes > 0 ? settings.memoryBudgetBytes : memoryBudgetBytes();
     const Topology topo = analyseTopology(mesh);
     const Index interior = Index(dims.x() - 2) * Index(dims.y() - 2) * Index(dims.z() - 2);
     Index pointGuess = interior;
@@ -485,14 +517,21 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
         pointGuess = std::min<Index>(interior, static_cast<Index>(std::abs(meshSignedVolume(mesh)) / (h * h * h)));
     auto refuse = [&](std::size_t need) {
         std::ostringstream os;
+        // What it needs grows as the cube of the resolution (1/h³): a value that fits, with 2 % to spare.
+        const double f = std::cbrt(double(budget) / double(need));
         os << "a lattice of " << dims.x() << "x" << dims.y() << "x" << dims.z() << " would need ~"
-           << bytesText(double(need)) << ", more than the " << bytesText(double(budget))
-           << " budget; use a larger voxel_size or a smaller resolution";
+           << bytesText(double(need)) << ", more than the " << bytesText(double(budget)) << " budget; ";
+        if (settings.voxelSize > 0)
+            os << "voxel_size " << std::setprecision(3) << h / (0.98 * f) << " would fit";
+        else
+            os << "resolution " << std::max(1, static_cast<int>(std::floor(0.98 * f * settings.resolution)))
+               << " would fit";
         throw InputError("", where, os.str());
     };
     {
         const double own = topo.openEdges.empty() ? 5.0 : 13.0;  // + flagged-point list
-        const double need = double(estimateLatticeBytes(cells, pointGuess)) + own * double(cells);
+        const double need =
+            double(estimateLatticeBytes(cells, pointGuess, settings.bytesPerPoint)) + own * double(cells);
         if (need > double(budget)) refuse(static_cast<std::size_t>(std::min(need, 1e19)));
     }
 
@@ -581,7 +620,7 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
 
     const Index points = std::count_if(mask.begin(), mask.end(), [](unsigned char m) { return m != 0; });
     {
-        const double need = double(estimateLatticeBytes(cells, points)) + 1.0 * double(cells);
+        const double need = double(estimateLatticeBytes(cells, points, settings.bytesPerPoint)) + 1.0 * double(cells);
         if (need > double(budget)) refuse(static_cast<std::size_t>(need));
     }
     Lattice lat = buildLattice(origin, h, dims, mask);

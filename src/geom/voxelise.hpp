@@ -16,14 +16,26 @@
 
 namespace dgv {
 
+/// Bytes per material point of a lattice with its geometric state (estimateLatticeBytes).
+constexpr double kLatticeBytesPerPoint = 1024;
+
+/// The memory a command may plan to use: the smallest of 3/4 of physical memory, the soft
+/// address-space limit (RLIMIT_AS, `ulimit -v`) and the cgroup's memory limit (v2 memory.max,
+/// v1 memory.limit_in_bytes), the last two where they are set.
+std::size_t memoryBudgetBytes();
+
 struct VoxeliseSettings {
     Real voxelSize = 0;           ///< h in world units; or 0 to derive it from `resolution`
     int resolution = 0;           ///< lattice points along the longest side of the bounds, padding
                                   ///< excluded (1..2048): h = longest side / resolution; or 0 to
                                   ///< use `voxelSize`
     Real windingThreshold = 0.5;  ///< inside when w >= threshold
-    /// Memory the lattice and its geometric state may take; 0 means 3/4 of physical memory.
+    /// Memory the lattice may take with what the command keeps per point; 0 means
+    /// memoryBudgetBytes() (the smallest of 3/4 of physical memory and the process's limits).
     std::size_t memoryBudgetBytes = 0;
+    /// What is kept per material point: the lattice and its geometric state (1 KiB), or more
+    /// for a body that is simulated (app/scene_build: buildObjects).
+    double bytesPerPoint = kLatticeBytesPerPoint;
 
     /// Problems by field name ("voxel_size: must be positive, got -1"); empty when valid.
     std::vector<std::string> validate() const;
@@ -43,8 +55,9 @@ struct VoxeliseReport {
 Real latticeSpacing(const Box3& bounds, const VoxeliseSettings& settings);
 
 /// Bytes a lattice over `gridCells` cells with `points` material points needs, geometric state
-/// included (what voxelise() checks against the memory budget before allocating).
-std::size_t estimateLatticeBytes(Index gridCells, Index points);
+/// included, or `bytesPerPoint` a point (what voxelise() checks against the memory budget
+/// before allocating).
+std::size_t estimateLatticeBytes(Index gridCells, Index points, double bytesPerPoint = kLatticeBytesPerPoint);
 
 /// Voxelises `mesh`. Throws InputError (input empty, where "voxel_size"/"resolution") when the
 /// settings are invalid or the lattice would not fit the memory budget (message gives the

@@ -8,6 +8,8 @@
 #include "geom/primitives.hpp"
 #include "geom/voxelise.hpp"
 
+#include <sys/resource.h>
+
 #include <cmath>
 #include <random>
 
@@ -257,6 +259,63 @@ TEST_CASE("voxelise: a lattice over the memory budget is refused before allocati
     s.memoryBudgetBytes = std::size_t(64) << 20;
     CHECK_NOTHROW(voxelise(m, s));
 }
+
+TEST_CASE("voxelise: a simulated body's bytes per point are budgeted, and the refusal names a resolution that fits",
+          "[geom]") {
+    const TriangleMesh m = makeSphere(1.0, 32, 16);
+    VoxeliseSettings s = atResolution(64);
+    s.memoryBudgetBytes = std::size_t(256) << 20;
+    CHECK_NOTHROW(voxelise(m, s));  // ~140k points at 1 KiB
+    s.bytesPerPoint = 7 * 1024;     // what `dgv simulate` keeps a point (app/scene_build.hpp)
+    int fits = 0;
+    try {
+        voxelise(m, s);
+        FAIL("expected an InputError");
+    } catch (const InputError& e) {
+        CHECK(e.where() == "resolution");
+        const std::string p = e.problem();
+        const auto at = p.find("; resolution ");
+        REQUIRE(at != std::string::npos);
+        REQUIRE(p.find(" would fit") != std::string::npos);
+        fits = std::stoi(p.substr(at + 13));
+    }
+    CHECK(fits > 32);  // the cube root of the shortfall, not a guess far below it
+    CHECK(fits < 64);
+    s.resolution = fits;
+    CHECK_NOTHROW(voxelise(m, s));
+    // by voxel size: a size that fits
+    VoxeliseSettings v = atVoxelSize(2.0 / 64);
+    v.memoryBudgetBytes = s.memoryBudgetBytes;
+    v.bytesPerPoint = s.bytesPerPoint;
+    try {
+        voxelise(m, v);
+        FAIL("expected an InputError");
+    } catch (const InputError& e) {
+        CHECK(e.where() == "voxel_size");
+        const auto at = e.problem().find("; voxel_size ");
+        REQUIRE(at != std::string::npos);
+        v.voxelSize = std::stod(e.problem().substr(at + 13));
+    }
+    CHECK(v.voxelSize > 2.0 / 64);
+    CHECK_NOTHROW(voxelise(m, v));
+}
+
+#if !defined(__SANITIZE_ADDRESS__) && !(defined(__has_feature) && __has_feature(address_sanitizer))
+TEST_CASE("voxelise: the memory budget is within the address-space limit", "[geom]") {
+    // (not under AddressSanitizer, which reserves terabytes of address space)
+    rlimit old{};
+    REQUIRE(getrlimit(RLIMIT_AS, &old) == 0);
+    const std::size_t free = memoryBudgetBytes();
+    rlimit low = old;
+    low.rlim_cur = std::min<rlim_t>(rlim_t(2) << 30, old.rlim_max);  // 2 GiB, where the hard limit allows
+    REQUIRE(setrlimit(RLIMIT_AS, &low) == 0);
+    const std::size_t limited = memoryBudgetBytes();
+    REQUIRE(setrlimit(RLIMIT_AS, &old) == 0);
+    // the limit less the address space the program takes besides its lattices (320 MiB)
+    CHECK(limited == std::min(free, std::size_t(low.rlim_cur) - (std::size_t(320) << 20)));
+    CHECK(memoryBudgetBytes() == free);
+}
+#endif
 
 TEST_CASE("voxelise: invalid settings and meshes are input errors", "[geom]") {
     const TriangleMesh m = makeSphere(1.0, 16, 8);
