@@ -2,6 +2,7 @@
 
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/read_file.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -53,14 +54,8 @@ std::vector<Vec3> parseCurveText(const std::string& text, const std::string& nam
 }
 
 std::vector<Vec3> readCurveFile(const std::filesystem::path& path) {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) throw InputError(path.string(), "", "no such file");
-    if (std::filesystem::is_directory(path, ec)) throw InputError(path.string(), "", "is a folder, not a curve file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(path.string(), "", "cannot be read (permission denied?)");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return parseCurveText(ss.str(), path.string());
+    constexpr std::uintmax_t kMaxCurveBytes = 256u << 20;  // ~5M vertices of text
+    return parseCurveText(readInputFile(path, "curve file", kMaxCurveBytes), path.string());
 }
 
 void writeCurveFile(const std::filesystem::path& path, const std::vector<Vec3>& curve, const std::string& comment) {

@@ -3,6 +3,7 @@
 #include "base/errors.hpp"
 #include "base/image.hpp"
 #include "io/mesh_import.hpp"
+#include "io/read_file.hpp"
 #include "io/vdb_read.hpp"
 
 #include <Eigen/Geometry>
@@ -743,25 +744,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
 }
 
 SceneDesc loadScene(const fs::path& path) {
-    std::error_code ec;
-    if (!fs::exists(path, ec)) throw InputError(path.string(), "", "no such file");
-    if (fs::is_directory(path, ec)) throw InputError(path.string(), "", "is a folder, not a scene file");
-    // A FIFO would block and a device (/dev/zero) never end: only regular files, of a size a
-    // scene can have.
-    if (!fs::is_regular_file(path, ec))
-        throw InputError(path.string(), "", "is not a regular file (a pipe, device or socket); give a scene file");
+    // meshes and level sets are separate files a scene names: 64 MiB of JSON is plenty
     constexpr std::uintmax_t kMaxSceneBytes = 64u << 20;
-    if (const std::uintmax_t size = fs::file_size(path, ec); !ec && size > kMaxSceneBytes)
-        throw InputError(path.string(), "",
-                         "is " + std::to_string(size >> 20) +
-                             " MiB; a scene file is JSON of at most 64 MiB "
-                             "(meshes and level sets are separate files it names)");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(path.string(), "", "cannot be read (permission denied?)");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    if (in.bad()) throw InputError(path.string(), "", "read error");
-    return parseScene(ss.str(), path);
+    return parseScene(readInputFile(path, "scene file", kMaxSceneBytes), path);
 }
 
 }  // namespace dgv

@@ -390,6 +390,25 @@ TEST_CASE("e2e: a scene path that is a pipe or a device exits 2 with one line in
     }
 }
 
+TEST_CASE("e2e: an I/O error while reading a scene or curve file exits 1 naming the file and the errno",
+          "[e2e][faults]") {
+    // A read error was reported as bad content, exit 2 ("malformed JSON: the file is empty"),
+    // which a farm does not retry. /proc/self/mem is a regular file whose read at offset 0 fails
+    // with EIO in the process that reads it: a real I/O error without an injection library.
+    test::TempDir dir("e2e_read_eio");
+    std::ofstream(dir.path() / "ring.txt") << "1 0 0\n0 1 0\n-1 0 0\n0 -1 0\n";
+    for (const std::string& cmd :
+         {std::string("render /proc/self/mem --out o"), std::string("simulate /proc/self/mem --out o"),
+          std::string("gln ring.txt /proc/self/mem")}) {
+        const Run r = runDgvIn(dir.path(), cmd);
+        INFO(cmd << ": exit " << r.exitCode << ", stderr: " << r.err);
+        CHECK(r.exitCode == 1);
+        CHECK(lineCount(r.err) == 1);
+        CHECK_THAT(r.err, Catch::Contains("/proc/self/mem: read error: Input/output error"));
+        CHECK_FALSE(fs::exists(dir.path() / "o"));
+    }
+}
+
 TEST_CASE("e2e: an output folder that is a dangling symbolic link exits 2 naming the link's target",
           "[e2e][badinput]") {
     // Making the folder failed after the setup, with only "File exists".
