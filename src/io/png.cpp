@@ -5,9 +5,11 @@
 
 #include <png.h>
 #include <zlib.h>  // Z_RLE
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <csetjmp>
 #include <cstdio>
 #include <cstdlib>
@@ -153,6 +155,19 @@ int decodeRaw(DecodeJob* job, PngError* err) {
 
     const int colorType = png_get_color_type(job->png, job->info);
     const int bitDepth = png_get_bit_depth(job->png, job->info);
+    {
+        // The declared size against the file's, before the pixels are allocated: the image data
+        // is deflate-compressed, which expands by at most 1032:1, so a header that declares
+        // more filtered rows than the file's bytes can inflate to is corrupt (a 1.1 MB file
+        // declaring 20000x20000 pixels made imgdiff allocate 3.2 GB and die).
+        struct stat st {};
+        const double fileBytes = fstat(fileno(job->file), &st) == 0 ? double(st.st_size) : 0;
+        const double w = png_get_image_width(job->png, job->info), h = png_get_image_height(job->png, job->info);
+        const double bitsPerPixel = double(png_get_channels(job->png, job->info)) * bitDepth;
+        const double filtered = h * (1 + std::ceil(w * bitsPerPixel / 8));
+        if (fileBytes > 0 && filtered > 1032.0 * fileBytes + 65536)
+            png_error(job->png, "its header declares more pixels than its size can hold (truncated or corrupt)");
+    }
     png_set_expand(job->png);                        // palette -> RGB, grey < 8 bits -> 8, tRNS -> alpha
     if (bitDepth < 16) png_set_expand_16(job->png);  // 8-bit v -> v*257
     if (colorType == PNG_COLOR_TYPE_GRAY || colorType == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_gray_to_rgb(job->png);

@@ -48,8 +48,9 @@ std::string readInputFile(const std::filesystem::path& path, const std::string& 
         bytes.append(buffer, static_cast<std::size_t>(n));
         if (bytes.size() > maxBytes) {  // it grew while read
             ::close(fd);
-            throw InputError(name, "", "is over " + std::to_string(maxBytes >> 20) + " MiB; a " + kind +
-                                           " is at most " + std::to_string(maxBytes >> 20) + " MiB");
+            throw InputError(name, "",
+                             "is over " + std::to_string(maxBytes >> 20) + " MiB; a " + kind + " is at most " +
+                                 std::to_string(maxBytes >> 20) + " MiB");
         }
     }
     ::close(fd);

@@ -170,3 +170,41 @@ TEST_CASE("png: unreadable, truncated or garbage files are input errors naming t
         }
     }
 }
+
+TEST_CASE("png: a header declaring more pixels than the file can hold is refused before allocating", "[io]") {
+    // A 1.1 MB file declaring 20000x20000 pixels made imgdiff allocate 3.2 GB and run out of
+    // memory. Deflate expands at most 1032:1, so such a header is corrupt; the IHDR of a small
+    // PNG is patched to 20000x20000 with its CRC recomputed, so only the declared size is wrong.
+    test::FpTrapsOff guard;
+    test::TempDir dir("png-huge");
+    std::vector<unsigned char> png = encodePng(pattern(16, 16, false));
+    REQUIRE(std::memcmp(png.data() + 12, "IHDR", 4) == 0);
+    for (int k = 0; k < 2; ++k) {  // width, height (big-endian) at bytes 16 and 20
+        const std::uint32_t v = 20000;
+        for (int b = 0; b < 4; ++b)
+            png[static_cast<std::size_t>(16 + 4 * k + b)] = static_cast<unsigned char>(v >> (24 - 8 * b));
+    }
+    std::uint32_t crc = 0xffffffffu;  // CRC-32 (PNG's) of the chunk type and data, bytes 12..28
+    for (std::size_t i = 12; i < 29; ++i) {
+        crc ^= png[i];
+        for (int b = 0; b < 8; ++b) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+    }
+    crc ^= 0xffffffffu;
+    for (int b = 0; b < 4; ++b) png[static_cast<std::size_t>(29 + b)] = static_cast<unsigned char>(crc >> (24 - 8 * b));
+    const fs::path huge = dir.path() / "huge.png";
+    std::ofstream(huge, std::ios::binary)
+        .write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    try {
+        readPng(huge);
+        FAIL("expected an InputError");
+    } catch (const InputError& e) {
+        CHECK(e.input() == huge.string());
+        CHECK_THAT(e.problem(), Catch::Contains("declares more pixels than its size can hold"));
+    }
+    // the same image at its own size reads
+    const fs::path small = dir.path() / "small.png";
+    const std::vector<unsigned char> ok = encodePng(pattern(16, 16, false));
+    std::ofstream(small, std::ios::binary)
+        .write(reinterpret_cast<const char*>(ok.data()), static_cast<std::streamsize>(ok.size()));
+    CHECK(readPng(small).width == 16);
+}
