@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include "deform/resample.hpp"
+#include "deform/twisted_ball.hpp"
 
 #include <tbb/global_control.h>
 
@@ -16,43 +17,11 @@ using namespace dgv;
 
 namespace {
 
-/// A ball of lattice points (radius `r` steps, spacing h), twisted about the vertical axis
-/// through its centre by `twist` radians per world unit of height; velocity affine in the
-/// material coordinates, v = A u + b; contact on the points of the lowest layers.
-struct Ball {
-    Lattice lat;
-    LatticeCells cells;
-    std::vector<Vec3> x, v;
-    std::vector<unsigned char> contact;
-    Mat3 A = Mat3::Zero();
-    Vec3 b{1.0, -2.0, 0.5};
-    Vec3 centre = Vec3::Zero();
-    ResampleInput input() const { return {&lat, &cells, &x, &v, &contact}; }
-};
+using Ball = test::TwistedBall;
 
-Ball makeBall(Real r, Real h, const Vec3& origin, Real twist) {
-    Ball f;
-    const int n = static_cast<int>(std::ceil(2 * r)) + 3;
-    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(n * n * n), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= r) mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    f.lat = buildLattice(origin, h, Vec3i(n, n, n), mask);
-    f.cells = buildCells(f.lat);
-    f.centre = origin + h * c;
-    f.A << 0.1, 0.0, 0.2, 0.0, -0.3, 0.0, 0.05, 0.0, 0.0;
-    for (Index p = 0; p < f.lat.size(); ++p) {
-        const Vec3i& u = f.lat.coords[static_cast<std::size_t>(p)];
-        const Vec3 d = f.lat.restPosition(p) - f.centre;
-        const Real a = twist * d.y(), cs = std::cos(a), sn = std::sin(a);
-        f.x.push_back(f.centre + Vec3(cs * d.x() + sn * d.z(), d.y(), -sn * d.x() + cs * d.z()));
-        f.v.push_back(f.A * u.cast<Real>() + f.b);
-        f.contact.push_back(u.y() <= 2 ? 1 : 0);
-    }
-    return f;
-}
+ResampleInput inputOf(const Ball& f) { return {&f.lat, &f.cells, &f.x, &f.v, &f.contact}; }
+
+Ball makeBall(Real r, Real h, const Vec3& origin, Real twist) { return test::makeTwistedBall(r, h, origin, twist); }
 
 /// Every block the sink received, by index.
 struct Collected {
@@ -67,7 +36,7 @@ Collected collect(const Ball& f, Real vs, const Vec3& origin, ResampleKernel ker
     Collected c;
     std::mutex m;
     c.report = resampleLattices(
-        {f.input()}, vs, origin, kernel, binning, [&](Index blocks) { c.blocks = blocks; },
+        {inputOf(f)}, vs, origin, kernel, binning, [&](Index blocks) { c.blocks = blocks; },
         [&](Index b, const ResampledBlock& blk) {
             std::lock_guard<std::mutex> lock(m);
             ++c.calls;

@@ -7,6 +7,7 @@
 #include "base/errors.hpp"
 #include "deform/volume.hpp"
 #include "geom/primitives.hpp"
+#include "deform/twisted_ball.hpp"
 #include "support/helpers.hpp"
 
 #include <catch2/catch.hpp>
@@ -26,19 +27,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// A ball of lattice points (radius `r` steps, spacing h, shifted origin), twisted about the
-/// vertical axis through its centre by `twist` radians per world unit of height; velocity affine
-/// in the material coordinates, v = A u + b; contact on the points of the lowest layers.
-struct TestFrame {
-    Lattice lat;
-    LatticeCells cells;
-    std::vector<Vec3> x, v;
-    std::vector<unsigned char> contact;
+/// The twisted ball of tests/deform/twisted_ball.hpp with rest volumes and a surface.
+struct TestFrame : test::TwistedBall {
     std::vector<Real> v0;
     TriangleMesh surface;
-    Mat3 A = Mat3::Zero();
-    Vec3 b{1.0, -2.0, 0.5};
-    Vec3 centre = Vec3::Zero();
 
     VdbObjectFrame object(const std::string& name = "ball") const {
         VdbObjectFrame o;
@@ -56,31 +48,10 @@ struct TestFrame {
 
 TestFrame makeFrame(Real r, Real h, const Vec3& origin, Real twist) {
     TestFrame f;
-    const int n = static_cast<int>(std::ceil(2 * r)) + 3;
-    const Vec3 c = Vec3::Constant(Real(n - 1) / 2);
-    std::vector<unsigned char> mask(static_cast<std::size_t>(n * n * n), 0);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i)
-                if ((Vec3(i, j, k) - c).norm() <= r) mask[static_cast<std::size_t>(i + n * (j + n * k))] = 1;
-    f.lat = buildLattice(origin, h, Vec3i(n, n, n), mask);
-    f.cells = buildCells(f.lat);
-    f.centre = origin + h * c;
-    f.A << 0.1, 0.0, 0.2, 0.0, -0.3, 0.0, 0.05, 0.0, 0.0;
-    auto twistMap = [&](const Vec3& p) -> Vec3 {
-        const Vec3 d = p - f.centre;
-        const Real a = twist * d.y(), cs = std::cos(a), sn = std::sin(a);
-        return f.centre + Vec3(cs * d.x() + sn * d.z(), d.y(), -sn * d.x() + cs * d.z());
-    };
-    for (Index p = 0; p < f.lat.size(); ++p) {
-        const Vec3i& u = f.lat.coords[static_cast<std::size_t>(p)];
-        f.x.push_back(twistMap(f.lat.restPosition(p)));
-        f.v.push_back(f.A * u.cast<Real>() + f.b);
-        f.contact.push_back(u.y() <= 2 ? 1 : 0);
-    }
+    static_cast<test::TwistedBall&>(f) = test::makeTwistedBall(r, h, origin, twist);
     f.v0.assign(static_cast<std::size_t>(f.cells.size()), h * h * h);
     f.surface = makeSphere(r * h, 96, 48);
-    for (Vec3& p : f.surface.vertices) p = twistMap(p + f.centre);
+    for (Vec3& p : f.surface.vertices) p = f.twisted(p + f.centre);
     return f;
 }
 
