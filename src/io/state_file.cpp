@@ -241,6 +241,17 @@ std::string readStateFile(const fs::path& path, StateCheckpoint& out) {
     if (!fs::is_regular_file(path, ec)) return fs::exists(path, ec) ? "not a regular file" : "no such file";
     std::ifstream in(path, std::ios::binary);
     if (!in) return "cannot open it";
+    {
+        // A foreign file, another format version or byte order shows in the first 20 bytes:
+        // refused before the rest is read (a 2 GB file was read whole, 4 GB resident, first).
+        char head[sizeof kMagic + 3 * sizeof(std::uint32_t)];
+        in.read(head, sizeof head);
+        StateCheckpoint scratch;
+        const std::string early = parseState(std::string(head, static_cast<std::size_t>(in.gcount())), scratch);
+        if (!early.empty() && early.rfind("truncated: ", 0) != 0) return early;
+        in.clear();
+        in.seekg(0);
+    }
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (in.bad()) return "cannot read it";
     return parseState(bytes, out);

@@ -7,6 +7,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <sys/resource.h>
+
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -147,6 +149,26 @@ TEST_CASE("state_file: truncated, corrupt, foreign and missing files are reporte
     CHECK(readStateFile(dir.path() / "absent.dgvstate", r) == "no such file");
     CHECK(readStateFile(dir.path(), r) == "not a regular file");
     CHECK(readStateFile(good, r).empty());
+}
+
+TEST_CASE("state_file: a large foreign file is refused by its first bytes, not read whole", "[io][checkpoint]") {
+    // A 2 GB file was read whole (4 GB resident) before its header was refused. A sparse 1 GiB
+    // file with a foreign header and one of another format version: refused without the
+    // process growing by anything like their size.
+    test::TempDir dir("state_big");
+    const fs::path big = dir.path() / "big.dgvstate";
+    rusage before{};
+    getrusage(RUSAGE_SELF, &before);
+    for (const std::string& head : {std::string("NOTADGV!"), std::string("DGVSTATE\x09\0\0\0")}) {
+        std::ofstream(big, std::ios::binary | std::ios::trunc) << head;
+        fs::resize_file(big, std::uintmax_t(1) << 30);
+        StateCheckpoint r;
+        const std::string why = readStateFile(big, r);
+        CHECK((why == "not a dgv state file" || why.rfind("format version 9", 0) == 0));
+    }
+    rusage after{};
+    getrusage(RUSAGE_SELF, &after);
+    CHECK(after.ru_maxrss - before.ru_maxrss < 256 * 1024);  // kB
 }
 
 TEST_CASE("state_file: the scene key ignores what cannot change the dynamics", "[io][checkpoint]") {
