@@ -503,6 +503,7 @@ int runRender(const RenderOptions& options) {
             dynamics.advanceTo(std::max(dynamics.done() + 1, scene.frameStart));
         }
     }
+    if (const std::string glb = dynamics.finishCaches(); !glb.empty()) logInfo("wrote the shot's glTF " + glb);
     if (options.contactSheet) {
         Image gap(1, 1);
         for (int c = 0; c < 3; ++c)

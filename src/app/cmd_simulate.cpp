@@ -72,11 +72,14 @@ int runSimulate(const SimulateOptions& options) {
         progress.step(line);
     }
     progress.finish();
+    const std::string glb = dynamics.finishCaches();
     logInfo("wrote " + (fs::path(scene.output.dir) / "stats.csv").string() +
             (vdb ? " and " + (fs::path(scene.output.dir) / "vdb").string() + "/" + scene.name + ".####.vdb" : "") +
             (scene.output.mesh.empty()
                  ? ""
-                 : " and " + (fs::path(scene.output.dir) / "mesh").string() + "/<object>.####." + scene.output.mesh));
+                 : " and " + (fs::path(scene.output.dir) / "mesh").string() + "/<object>.####." +
+                       meshCacheExtension(meshCacheFormatFromName(scene.output.mesh, "output.mesh"))) +
+            (glb.empty() ? "" : " and " + glb));
     return kExitOk;
 }
 

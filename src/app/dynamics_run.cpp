@@ -5,6 +5,7 @@
 #include "base/errors.hpp"
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"
+#include "io/gltf_cache.hpp"
 #include "io/state_file.hpp"
 #include "io/vdb_cache.hpp"
 #include "io/vdb_mesh.hpp"
@@ -139,9 +140,18 @@ void DynamicsRun::writeVdb(int frame) {
     (void)writeVdbFrame(vdbFramePath(dir, mScene.name, frame), objs, info, set);
 }
 
+fs::path DynamicsRun::gltfPath() const { return fs::path(mScene.output.dir) / "mesh" / (mScene.name + ".glb"); }
+
 void DynamicsRun::writeMeshes(int frame) {
     const fs::path dir = fs::path(mScene.output.dir) / "mesh";
     ensureDirectory(dir);
+    if (mMesh == MeshCacheFormat::Gltf && !mMeshWritten) {
+        // The shot's glTF is remade from the frames when the run ends; until then an older one
+        // would be stale (another version of the scene, or frames this run replaces).
+        std::error_code ec;
+        fs::remove(gltfPath(), ec);
+    }
+    mMeshWritten = true;
     std::vector<Vec3> positions;
     std::vector<Real> contact;
     for (std::size_t i = 0; i < mObjects.size(); ++i) {
@@ -164,6 +174,41 @@ void DynamicsRun::writeMeshes(int frame) {
         }
         writeMeshCacheFrame(meshCachePath(dir, f.object, frame, mMesh), mMesh, f);
     }
+}
+
+std::string DynamicsRun::finishCaches() {
+    if (mMesh != MeshCacheFormat::Gltf || mReadOnly || mDone < mScene.frameStart) return "";
+    const fs::path dir = fs::path(mScene.output.dir) / "mesh";
+    const int first = std::max(mScene.frameStart, mFirstWritten);
+    std::vector<GltfTrack> tracks;
+    for (const BuiltObject& o : mObjects) {
+        GltfTrack track;
+        track.name = o.name;
+        track.colour = o.color;
+        for (int f = first; f <= mDone; ++f) {
+            const fs::path file = meshCachePath(dir, o.name, f, mMesh);
+            const std::string problem = meshCacheFileProblem(file, mMesh, f, mFrameKey);
+            if (!problem.empty())
+                throw RuntimeError(file.string() + " " + problem + "; the shot's glTF (" + gltfPath().string() +
+                                   ") is made from every frame's file: run with --resume to make it again");
+            MeshCacheData d = readMeshCacheFrame(file);
+            if (track.segments.empty() || track.segments.back().triangles != d.triangles) {
+                track.segments.emplace_back();
+                track.segments.back().firstFrame = f;
+                track.segments.back().triangles = std::move(d.triangles);
+            }
+            track.segments.back().positions.push_back(std::move(d.positions));
+            track.segments.back().normals.push_back(std::move(d.normals));
+        }
+        tracks.push_back(std::move(track));
+    }
+    GltfShotInfo info;
+    info.fps = mScene.fps;
+    info.firstFrame = 0;  // t = frame / fps: Blender's and Houdini's frame N is the shot's frame N
+    info.generator = std::string("dgv ") + DGV_VERSION_STRING;
+    info.key = mFrameKey;
+    writeGltfShot(gltfPath(), tracks, info);
+    return gltfPath().string();
 }
 
 void DynamicsRun::writeCheckpoint(int frame) {

@@ -9,6 +9,7 @@
 #include "sim/simulation.hpp"
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -51,6 +52,10 @@ public:
     /// neither are stats.csv and the VDB and mesh caches, which the shot's simulation job owns; so
     /// tasks sharing one output folder never write the same file.
     void setReadOnly(bool readOnly) { mReadOnly = readOnly; }
+    /// After the last frame of a run: with `output.mesh: "gltf"`, assembles the mesh cache's PLY
+    /// frames (from the first written through done()) into <out>/mesh/<name>.glb (io/gltf_cache).
+    /// Returns its path, or "" when the run writes none (another format, a farm render task).
+    std::string finishCaches();
     /// The rows written so far (header first).
     const std::vector<std::string>& statsRows() const { return mRows; }
     const FrameStats& lastStats() const { return mLast; }
@@ -64,6 +69,7 @@ private:
     void writeMeshes(int frame);
     void writeCheckpoint(int frame);
     void writeStats();
+    std::filesystem::path gltfPath() const;
 
     const SceneDesc& mScene;
     const std::vector<BuiltObject>& mObjects;
@@ -78,6 +84,7 @@ private:
     std::uint64_t mSceneKey = 0;  ///< what checkpoints must match (io/state_file.hpp)
     std::string mFrameKey;        ///< the VDB and mesh cache files' key (io/state_file.hpp, sceneFrameKey)
     std::vector<ContactHistory> mContactHistory;  ///< per object
+    bool mMeshWritten = false;                    ///< a mesh frame was written by this run
 };
 
 }  // namespace dgv::app

@@ -157,8 +157,9 @@ int main(int argc, char** argv) {
     cRender->add_option("--out", render.outDir, "Output folder (default: the scene's output.dir)");
     cRender
         ->add_option("--mesh", render.mesh,
-                     "Also write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply)")
-        ->check(CLI::IsMember({"ply", "obj"}));
+                     "Also write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply); "
+                     "gltf also assembles the shot into one animated <out>/mesh/<name>.glb")
+        ->check(CLI::IsMember({"ply", "obj", "gltf"}));
     cRender->add_option("--width", render.width, "Image width in pixels")->check(CLI::Range(16, 16384));
     cRender->add_option("--height", render.height, "Image height in pixels")->check(CLI::Range(16, 16384));
     cRender->add_option("--resolution", render.resolution, "Image size WxH, e.g. 1920x1080 (overrides the scene)");
@@ -183,8 +184,9 @@ int main(int argc, char** argv) {
     cSim->add_option("--out", simulate.outDir, "Output folder (default: the scene's output.dir)");
     cSim->add_flag("--vdb", simulate.vdb, "Write the VDB cache (also on when the scene sets output.vdb)");
     cSim->add_option("--mesh", simulate.mesh,
-                     "Write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply)")
-        ->check(CLI::IsMember({"ply", "obj"}));
+                     "Write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply); "
+                     "gltf also assembles the shot into one animated <out>/mesh/<name>.glb")
+        ->check(CLI::IsMember({"ply", "obj", "gltf"}));
     cSim->add_flag("--resume", simulate.resume,
                    "Continue from the last valid state checkpoint (<out>/state/<name>.####.dgvstate)");
     cSim->footer(kExitCodes);
@@ -246,8 +248,8 @@ int main(int argc, char** argv) {
     cFarmSubmit->add_option("--out", farm.dir, "Output folder on shared storage (default: the scene's output.dir)");
     cFarmSubmit->add_flag("--dry-run", farm.dryRun, "Print the scripts; write and submit nothing");
     cFarmSubmit->add_flag("--vdb", farm.vdb, "The simulation job also writes the VDB cache");
-    cFarmSubmit->add_option("--mesh", farm.mesh, "The simulation job also writes the mesh cache: ply or obj")
-        ->check(CLI::IsMember({"ply", "obj"}));
+    cFarmSubmit->add_option("--mesh", farm.mesh, "The simulation job also writes the mesh cache: ply, obj or gltf")
+        ->check(CLI::IsMember({"ply", "obj", "gltf"}));
     cFarmSubmit->add_flag("--contact-sheet", farm.contactSheet, "The check job also writes <name>.contact.png");
     cFarmSubmit->add_flag("--movie", farm.movie, "The check job also writes <name>.mp4 (ffmpeg on the node)");
     auto* cFarmStatus = cFarm->add_subcommand("status", "What of a submitted shot is done, running or failed");

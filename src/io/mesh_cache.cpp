@@ -4,6 +4,7 @@
 #include "base/image.hpp"
 #include "geom/triangle_mesh.hpp"
 #include "io/atomic_file.hpp"
+#include "io/read_file.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -57,7 +58,8 @@ void putInt(std::string& out, int v) {
 MeshCacheFormat meshCacheFormatFromName(const std::string& name, const std::string& where) {
     if (name == "ply") return MeshCacheFormat::Ply;
     if (name == "obj") return MeshCacheFormat::Obj;
-    throw InputError(where, "", "expected ply or obj, got \"" + name + "\"");
+    if (name == "gltf") return MeshCacheFormat::Gltf;
+    throw InputError(where, "", "expected ply, obj or gltf, got \"" + name + "\"");
 }
 
 const char* meshCacheExtension(MeshCacheFormat format) { return format == MeshCacheFormat::Obj ? "obj" : "ply"; }
@@ -73,7 +75,7 @@ void writeMeshCacheFrame(const fs::path& path, MeshCacheFormat format, const Mes
     const std::vector<std::array<int, 3>>& tris = *f.triangles;
     const std::vector<Vec3> n = vertexNormals(x, tris);
     std::string out;
-    if (format == MeshCacheFormat::Ply) {
+    if (format != MeshCacheFormat::Obj) {
         out = plyHeader(f, x.size(), tris.size());
         out.reserve(out.size() + x.size() * kPlyVertexBytes + tris.size() * kPlyFaceBytes);
         unsigned char rgb[3];
@@ -118,7 +120,8 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     std::string line, gotFrame, gotKey;
     std::size_t vertices = 0, faces = 0, headerBytes = 0;
     bool ended = false;
-    const std::string prefix = format == MeshCacheFormat::Ply ? "comment " : "# ";
+    const bool ply = format != MeshCacheFormat::Obj;
+    const std::string prefix = ply ? "comment " : "# ";
     for (int lines = 0; std::getline(in, line) && lines < 64; ++lines) {
         headerBytes += line.size() + 1;
         if (line.rfind(prefix + "dgv_frame ", 0) == 0)
@@ -138,7 +141,7 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     if (gotFrame != std::to_string(frame))
         return gotFrame.empty() ? "has no dgv frame (not written by dgv)" : "holds frame " + gotFrame;
     if (gotKey != key) return "is of another version of the scene";
-    if (format == MeshCacheFormat::Ply) {
+    if (ply) {
         if (!ended || size != headerBytes + vertices * kPlyVertexBytes + faces * kPlyFaceBytes) return "is truncated";
         return "";
     }
@@ -150,6 +153,76 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     std::string last;
     std::getline(in, last);
     return last == kObjEnd ? "" : "is truncated";
+}
+
+MeshCacheData readMeshCacheFrame(const fs::path& path) {
+    const std::string bytes = readInputFile(path, "mesh cache frame", std::uintmax_t(1) << 34);
+    auto bad = [&](const std::string& why) -> MeshCacheData {
+        throw RuntimeError(path.string() + ": not a dgv mesh cache frame (" + why + ")");
+    };
+    const std::size_t end = bytes.find("end_header\n");
+    if (bytes.rfind("ply\nformat binary_little_endian 1.0\n", 0) != 0 || end == std::string::npos)
+        return bad("no binary PLY header");
+    // The header must be the one plyHeader writes, but for its counts and comments.
+    std::size_t vertices = 0, faces = 0;
+    std::istringstream header(bytes.substr(0, end));
+    std::string line, layout;
+    while (std::getline(header, line)) {
+        if (line.rfind("comment ", 0) == 0) continue;
+        if (line.rfind("element vertex ", 0) == 0) {
+            vertices = std::strtoull(line.c_str() + 15, nullptr, 10);
+            line = "element vertex";
+        } else if (line.rfind("element face ", 0) == 0) {
+            faces = std::strtoull(line.c_str() + 13, nullptr, 10);
+            line = "element face";
+        }
+        layout += line + "\n";
+    }
+    MeshCacheFrame probe;
+    std::string expected;
+    {
+        std::istringstream h(plyHeader(probe, 0, 0));
+        while (std::getline(h, line)) {
+            if (line.rfind("comment ", 0) == 0 || line == "end_header") continue;
+            if (line.rfind("element vertex", 0) == 0) line = "element vertex";
+            if (line.rfind("element face", 0) == 0) line = "element face";
+            expected += line + "\n";
+        }
+    }
+    if (layout != expected) return bad("another PLY layout");
+    const std::size_t body = end + 11;
+    if (bytes.size() != body + vertices * kPlyVertexBytes + faces * kPlyFaceBytes) return bad("truncated");
+    MeshCacheData d;
+    d.positions.resize(vertices);
+    d.normals.resize(vertices);
+    d.contact.resize(vertices);
+    const char* p = bytes.data() + body;
+    auto getFloat = [&]() {
+        float f;
+        std::memcpy(&f, p, 4);
+        p += 4;
+        return f;
+    };
+    for (std::size_t v = 0; v < vertices; ++v) {
+        for (int c = 0; c < 3; ++c) d.positions[v][c] = getFloat();
+        for (int c = 0; c < 3; ++c) d.normals[v][c] = getFloat();
+        if (v == 0)
+            for (int c = 0; c < 3; ++c) d.colour[c] = decodeSrgb(static_cast<unsigned char>(p[c]) / 255.0);
+        p += 3;
+        d.contact[v] = getFloat();
+    }
+    d.triangles.resize(faces);
+    for (std::size_t t = 0; t < faces; ++t) {
+        if (*p++ != 3) return bad("a face that is not a triangle");
+        for (int k = 0; k < 3; ++k) {
+            int i;
+            std::memcpy(&i, p, 4);
+            p += 4;
+            if (i < 0 || static_cast<std::size_t>(i) >= vertices) return bad("a vertex index out of range");
+            d.triangles[t][k] = i;
+        }
+    }
+    return d;
 }
 
 }  // namespace dgv

@@ -7,7 +7,8 @@
 /// vertex: 1 where the vertex's lattice cell is all in the contact set R, 0 where none of it is);
 /// OBJ with positions and normals (`vn`, `f v//vn`). Each file carries its frame and the scene's
 /// frame key in comments, so --resume keeps only files of this version of the scene, and is
-/// written to a temporary name and renamed.
+/// written to a temporary name and renamed. `gltf` writes the PLY sequence too, and at the end of
+/// the run assembles it into one animated glTF 2.0 file (io/gltf_cache.hpp).
 
 #include "base/types.hpp"
 
@@ -18,10 +19,12 @@
 
 namespace dgv {
 
-enum class MeshCacheFormat { None, Ply, Obj };
+/// Gltf: the Ply sequence per frame, and the animated `<scene>.glb` assembled from it at the end.
+enum class MeshCacheFormat { None, Ply, Obj, Gltf };
 
-/// "ply", "obj" (an InputError naming `where` otherwise).
+/// "ply", "obj", "gltf" (an InputError naming `where` otherwise).
 MeshCacheFormat meshCacheFormatFromName(const std::string& name, const std::string& where);
+/// The per-frame files' extension: "obj" for Obj, else "ply".
 const char* meshCacheExtension(MeshCacheFormat format);
 
 struct MeshCacheFrame {
@@ -46,5 +49,17 @@ void writeMeshCacheFrame(const std::filesystem::path& path, MeshCacheFormat form
 /// frame's, or of another version of the scene.
 std::string meshCacheFileProblem(const std::filesystem::path& path, MeshCacheFormat format, int frame,
                                  const std::string& key);
+
+/// One PLY frame as this module writes it.
+struct MeshCacheData {
+    std::vector<Vec3> positions, normals;
+    std::vector<std::array<int, 3>> triangles;
+    std::vector<float> contact;
+    Vec3 colour = Vec3(0.8, 0.8, 0.8);  ///< linear RGB (decoded from the file's 8-bit sRGB)
+};
+
+/// Reads a PLY frame written by writeMeshCacheFrame (check it with meshCacheFileProblem first).
+/// RuntimeError naming the file when it is not one: another layout, short, or an index out of range.
+MeshCacheData readMeshCacheFrame(const std::filesystem::path& path);
 
 }  // namespace dgv

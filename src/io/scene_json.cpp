@@ -731,7 +731,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             if (m->is_boolean() && !m->get<bool>())
                 s.output.mesh.clear();
             else
-                s.output.mesh = o.choice("mesh", "", {"ply", "obj"});
+                s.output.mesh = o.choice("mesh", "", {"ply", "obj", "gltf"});
         }
     });
     if (outDir.rfind("//", 0) == 0)
