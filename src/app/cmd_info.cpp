@@ -2,6 +2,7 @@
 
 #include "app/commands.hpp"
 #include "base/errors.hpp"
+#include "base/progress.hpp"
 #include "geom/triangle_mesh.hpp"
 #include "geom/voxelise.hpp"
 #include "io/mesh_import.hpp"
@@ -22,6 +23,7 @@ int runInfo(const InfoOptions& options) {
     importOptions.meshName = options.meshName;
     MeshImportReport importReport;
     TriangleMesh mesh = importMesh(options.mesh, importOptions, &importReport);
+    if (const std::string w = unlikelySizeWarning(mesh, options.mesh); !w.empty()) logWarning(w);
     MeshReport m = analyseMesh(mesh);
 
     VoxeliseSettings vs;

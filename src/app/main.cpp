@@ -128,6 +128,50 @@ std::string unknownCommandMessage(CLI::App& cli, const std::string& word) {
 }
 
 const char* kExitCodes = "Exit codes: 0 success, 1 run-time failure (I/O, GL), 2 bad input or usage, 130 interrupted.";
+const char* kSubcommandFooter =
+    "Global options, before or after the subcommand: --threads N (worker threads, 0: all cores), -q/--quiet (no "
+    "progress output), --progress auto|bar|log.\n"
+    "Exit codes: 0 success, 1 run-time failure (I/O, GL), 2 bad input or usage, 130 interrupted.";
+
+/// The deepest subcommand parsed ("farm submit"), or the app itself.
+CLI::App* parsedCommand(CLI::App& cli) {
+    CLI::App* app = &cli;
+    while (!app->get_subcommands().empty()) app = app->get_subcommands().front();
+    return app;
+}
+
+/// "unknown option '--widht' for 'render' (did you mean '--width'?)" for the first option on the
+/// command line that neither `command` nor the global options know; empty when there is none.
+std::string unknownOptionMessage(CLI::App& cli, CLI::App& command, int argc, char** argv) {
+    std::vector<std::string> names;
+    for (CLI::App* app : {&command, &cli})
+        for (const CLI::Option* opt : app->get_options()) {
+            for (const std::string& l : opt->get_lnames()) names.push_back("--" + l);
+            for (const std::string& s : opt->get_snames()) names.push_back("-" + s);
+        }
+    for (int i = 1; i < argc; ++i) {
+        std::string arg = argv[i];
+        if (arg == "--") break;
+        if (arg.size() < 2 || arg[0] != '-' || (arg[1] >= '0' && arg[1] <= '9') || arg[1] == '.') continue;
+        arg = arg.substr(0, arg.find('='));
+        if (std::find(names.begin(), names.end(), arg) != names.end()) continue;
+        std::string best;
+        std::size_t bestDistance = std::string::npos;
+        for (const std::string& name : names) {
+            const std::size_t d = editDistance(arg, name);
+            if (d <= std::max<std::size_t>(1, name.size() / 3) && d < bestDistance) {
+                best = name;
+                bestDistance = d;
+            }
+        }
+        const std::string where = command.get_parent() ? " for '" + command.get_name() + "'" : "";
+        return "unknown option '" + arg + "'" + where +
+               (best.empty()
+                    ? " (see dgv " + (command.get_parent() ? command.get_name() + " " : std::string()) + "--help)"
+                    : " (did you mean '" + best + "'?)");
+    }
+    return "";
+}
 
 }  // namespace
 
@@ -259,6 +303,14 @@ int main(int argc, char** argv) {
     cFarmResubmit->add_option("dir", farm.dir, "The shot's output folder")->required();
     cFarmResubmit->add_flag("--dry-run", farm.dryRun, "Print what would be submitted");
 
+    // Each subcommand's --help names the global options it takes too.
+    std::vector<CLI::App*> pending = cli.get_subcommands([](CLI::App*) { return true; });
+    while (!pending.empty()) {
+        CLI::App* sub = pending.back();
+        pending.pop_back();
+        sub->footer(kSubcommandFooter);
+        for (CLI::App* child : sub->get_subcommands([](CLI::App*) { return true; })) pending.push_back(child);
+    }
     try {
         cli.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -269,8 +321,11 @@ int main(int argc, char** argv) {
         return cli.exit(e);
     } catch (const CLI::ExtrasError& e) {
         const std::string word = cli.get_subcommands().empty() ? unknownCommand(cli, argc, argv) : "";
+        const std::string option = word.empty() ? unknownOptionMessage(cli, *parsedCommand(cli), argc, argv) : "";
         if (!word.empty())
             std::fprintf(stderr, "dgv: error: %s\n", oneLine(unknownCommandMessage(cli, word).c_str()).c_str());
+        else if (!option.empty())
+            std::fprintf(stderr, "dgv: error: %s\n", oneLine(option.c_str()).c_str());
         else
             std::fprintf(stderr, "dgv: %s (see dgv --help)\n", oneLine(e.what()).c_str());
         return kExitBadInput;

@@ -6,6 +6,7 @@
 #include "io/mesh_import.hpp"
 
 #include <cstdio>
+#include <filesystem>
 
 namespace dgv::app {
 
@@ -31,6 +32,7 @@ TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, in
     } else {
         MeshImportOptions opts;
         opts.meshName = desc.meshName;
+        opts.unitScale = desc.transform.units;
         try {
             mesh = importMesh(desc.meshPath, opts);
         } catch (const InputError& e) {
@@ -38,6 +40,11 @@ TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, in
         }
     }
     transformMesh(mesh, desc.transform.linear(), desc.transform.translate);
+    if (!desc.isPrimitive) {
+        const std::string warning = unlikelySizeWarning(
+            mesh, "object '" + desc.name + "' (" + std::filesystem::path(desc.meshPath).filename().string() + ")");
+        if (!warning.empty()) logWarning(warning);
+    }
     return mesh;
 }
 
@@ -49,6 +56,7 @@ void resolvePinGroups(SceneDesc& scene) {
         opts.meshName = desc.pin.group;
         opts.orientOutward = false;  // only the vertices are used
         opts.logUnitScale = false;   // said when the body's mesh was imported
+        opts.unitScale = desc.transform.units;
         TriangleMesh group;
         try {
             group = importMesh(desc.meshPath, opts);

@@ -36,10 +36,8 @@ public:
         if (target) view["target"] = target;
         bufferViews.push_back(view);
         bin += bytes;
-        Json acc = {{"bufferView", bufferViews.size() - 1},
-                    {"componentType", componentType},
-                    {"count", count},
-                    {"type", type}};
+        Json acc = {
+            {"bufferView", bufferViews.size() - 1}, {"componentType", componentType}, {"count", count}, {"type", type}};
         if (!minValue.is_null()) acc["min"] = minValue;
         if (!maxValue.is_null()) acc["max"] = maxValue;
         accessors.push_back(acc);
@@ -115,11 +113,12 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
             const GltfSegment& seg = track.segments[s];
             const std::size_t frames = seg.positions.size();
             if (frames == 0) continue;
-            Json prim = {{"attributes", {{"POSITION", b.addVec3(seg.positions[0], true)},
-                                         {"NORMAL", b.addVec3(seg.normals[0], false)}}},
-                         {"indices", b.addIndices(seg.triangles)},
-                         {"material", material},
-                         {"mode", 4}};
+            Json prim = {
+                {"attributes",
+                 {{"POSITION", b.addVec3(seg.positions[0], true)}, {"NORMAL", b.addVec3(seg.normals[0], false)}}},
+                {"indices", b.addIndices(seg.triangles)},
+                {"material", material},
+                {"mode", 4}};
             Json targets = Json::array(), names = Json::array();
             std::vector<Vec3> delta(seg.positions[0].size());
             for (std::size_t k = 1; k < frames; ++k) {
@@ -155,7 +154,8 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
                 samplers.push_back({{"input", b.addScalars(times, true)},
                                     {"output", b.addScalars(weights, false)},
                                     {"interpolation", "LINEAR"}});
-                channels.push_back({{"sampler", samplers.size() - 1}, {"target", {{"node", nodeIndex}, {"path", "weights"}}}});
+                channels.push_back(
+                    {{"sampler", samplers.size() - 1}, {"target", {{"node", nodeIndex}, {"path", "weights"}}}});
             }
             if (track.segments.size() > 1) {
                 // Visible (scale 1) from the segment's first frame to the next segment's first.
@@ -171,14 +171,18 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
                 std::memcpy(bytes.data(), scales.data(), bytes.size());
                 const int out = b.add(bytes, kFloat, "VEC3", times.size(), 0);
                 samplers.push_back({{"input", b.addScalars(times, true)}, {"output", out}, {"interpolation", "STEP"}});
-                channels.push_back({{"sampler", samplers.size() - 1}, {"target", {{"node", nodeIndex}, {"path", "scale"}}}});
+                channels.push_back(
+                    {{"sampler", samplers.size() - 1}, {"target", {{"node", nodeIndex}, {"path", "scale"}}}});
             }
         }
     }
 
     Json sceneNodes = Json::array();
     for (std::size_t i = 0; i < nodes.size(); ++i) sceneNodes.push_back(i);
-    Json doc = {{"asset", {{"version", "2.0"}, {"generator", info.generator}, {"extras", {{"dgv_key", info.key}, {"dgv_fps", info.fps}}}}},
+    Json doc = {{"asset",
+                 {{"version", "2.0"},
+                  {"generator", info.generator},
+                  {"extras", {{"dgv_key", info.key}, {"dgv_fps", info.fps}}}}},
                 {"scene", 0},
                 {"scenes", Json::array({{{"nodes", sceneNodes}}})},
                 {"nodes", nodes},
@@ -190,7 +194,8 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
         doc["bufferViews"] = b.bufferViews;
         doc["buffers"] = Json::array({{{"byteLength", b.bin.size()}}});
     }
-    if (!channels.empty()) doc["animations"] = Json::array({{{"name", "dgv"}, {"samplers", samplers}, {"channels", channels}}});
+    if (!channels.empty())
+        doc["animations"] = Json::array({{{"name", "dgv"}, {"samplers", samplers}, {"channels", channels}}});
 
     std::string json = doc.dump();
     while (json.size() % 4) json.push_back(' ');

@@ -9,9 +9,9 @@
 /// NORMAL, and every later frame as a morph target (the change of positions and normals from the
 /// first, named `frame_####` in the mesh's `extras.targetNames`, which Blender uses as the shape
 /// keys' names). One animation, `dgv`, keys each mesh's weights at the frames' times
-/// (t = frame / fps, so that an importer's frame N at that fps is the shot's frame N): at frame k only target k has weight 1 (none at the first),
-/// and LINEAR interpolation blends two neighbouring frames between their times (a sub-frame
-/// sample, e.g. for motion blur, gets the blend of the frames either side).
+/// (t = frame / fps, so that an importer's frame N at that fps is the shot's frame N): at frame k only target k has
+/// weight 1 (none at the first), and LINEAR interpolation blends two neighbouring frames between their times (a
+/// sub-frame sample, e.g. for motion blur, gets the blend of the frames either side).
 ///
 /// A goo body that is re-parametrised changes its triangles (docs/math.md); glTF's morph targets
 /// need one topology, so each run of frames with the same triangles is a mesh and node of its own

@@ -394,6 +394,31 @@ double unitScaleOf(const aiScene* scene) {
 
 }  // namespace
 
+std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& what) {
+    if (mesh.vertices.empty()) return "";
+    Vec3 lo = mesh.vertices[0], hi = lo;
+    for (const Vec3& v : mesh.vertices) {
+        lo = lo.cwiseMin(v);
+        hi = hi.cwiseMax(v);
+    }
+    const Real size = (hi - lo).maxCoeff();
+    char line[300];
+    if (size > 100) {
+        std::snprintf(line, sizeof line,
+                      " is %.4g m across: is the file in centimetres or millimetres? transform.units \"cm\" or "
+                      "\"mm\" reads it so (or transform.scale)",
+                      size);
+    } else if (size < 1e-3) {
+        std::snprintf(line, sizeof line,
+                      " is %.3g m across, under a millimetre: is the file in another unit? transform.units "
+                      "(\"m\", \"cm\", \"mm\", \"in\", \"ft\" or metres per unit) or transform.scale sets it",
+                      size);
+    } else {
+        return "";
+    }
+    return what + line;
+}
+
 TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, MeshImportReport* report) {
     const std::string p = path.string();
     checkReadable(path);
@@ -435,10 +460,18 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
     }
 
     // The file's unit scale comes before its node transforms (and so before a scene's transform).
-    const double unitScale = unitScaleOf(scene);
+    const double fileScale = unitScaleOf(scene);
+    const double unitScale = options.unitScale > 0 ? options.unitScale : fileScale;
     Mat4 root = Mat4::Identity();
     root.topLeftCorner<3, 3>() *= unitScale;
-    if (unitScale != 1 && options.logUnitScale) {
+    if (options.unitScale > 0) {
+        if (fileScale != 1 && fileScale != unitScale && options.logUnitScale) {
+            char line[200];
+            std::snprintf(line, sizeof line, "the file's unit is %.6g m; transform.units makes it %.6g m", fileScale,
+                          unitScale);
+            logInfo(p + ": " + line);
+        }
+    } else if (unitScale != 1 && options.logUnitScale) {
         char line[200];
         std::snprintf(line, sizeof line,
                       "the file's unit is %.6g m (FBX UnitScaleFactor %.6g); scaled by %.6g to metres", unitScale,

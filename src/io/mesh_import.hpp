@@ -19,6 +19,9 @@ struct MeshImportOptions {
     /// Log the line saying a file's unit scale was applied (off for a second import of the
     /// same file, a pin's vertex group).
     bool logUnitScale = true;
+    /// Metres per file unit to apply instead of the file's own (a scene's `transform.units`); 0:
+    /// the file's (FBX's UnitScaleFactor, else 1).
+    double unitScale = 0;
 };
 
 struct MeshImportReport {
@@ -42,5 +45,10 @@ struct MeshImportReport {
 /// 'x'; available: 'a', 'b'". Silences assimp's logger.
 TriangleMesh importMesh(const std::filesystem::path& path, const MeshImportOptions& options = {},
                         MeshImportReport* report = nullptr);
+
+/// A warning for a mesh whose size in metres is unlikely for a shot, which usually means a file
+/// in another unit: larger than 100 m across ("... 150 m across: is the file in centimetres? ...")
+/// or smaller than 1 mm; "" otherwise. `what` names the mesh ("object 'duck' (duck.dae)").
+std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& what);
 
 }  // namespace dgv

@@ -2,6 +2,7 @@
 
 #include "base/errors.hpp"
 #include "base/image.hpp"
+#include "base/progress.hpp"
 #include "io/mesh_import.hpp"
 #include "io/read_file.hpp"
 #include "io/vdb_read.hpp"
@@ -235,6 +236,20 @@ TransformDesc readTransform(ObjectReader& r) {
     TransformDesc t;
     t.translate = r.vec3("translate", t.translate);
     t.rotateDegrees = r.vec3("rotate", t.rotateDegrees);
+    if (const Json* u = r.get("units")) {
+        // Metres per unit: a name or a number.
+        static const std::vector<std::pair<std::string, Real>> kUnits = {{"m", 1},     {"cm", 0.01},   {"mm", 0.001},
+                                                                         {"km", 1000}, {"in", 0.0254}, {"ft", 0.3048}};
+        if (u->is_number()) {
+            t.units = r.checkNumber("units", *u, 0, HUGE_VAL, true);
+        } else {
+            const std::string name = u->is_string() ? u->get<std::string>() : "";
+            for (const auto& [n, k] : kUnits)
+                if (n == name) t.units = k;
+            if (!(t.units > 0))
+                r.fail("units", "expected m, cm, mm, km, in, ft or metres per unit (a number > 0), got " + u->dump());
+        }
+    }
     if (const Json* s = r.get("scale")) {
         if (s->is_number()) {
             Real k = r.checkNumber("scale", *s, 0, HUGE_VAL, true);
@@ -385,7 +400,11 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 pd.height = p.number("height", 1.0, 0, HUGE_VAL, false);
             }
         });
-        o.object("transform", [&](ObjectReader& t) { d.transform = readTransform(t); });
+        o.object("transform", [&](ObjectReader& t) {
+            d.transform = readTransform(t);
+            if (d.isPrimitive && t.has("units"))
+                t.fail("units", "applies to a mesh file (a primitive is in metres; use scale)");
+        });
         readVoxel(o, d.voxel);
         d.color = o.color("color", d.color);
         d.deformable = o.boolean("deformable", true);
@@ -582,6 +601,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.levelSetGrid = c.string("grid", "");
             c.object("transform", [&](ObjectReader& t) {
                 d.transform = readTransform(t);
+                if (t.has("units")) t.fail("units", "applies to a mesh file (a level set is in the file's metres)");
                 const Vec3& k = d.transform.scale;
                 if (k.x() != k.y() || k.x() != k.z() || !(k.x() > 0))
                     t.fail("scale", "a levelset collider takes a positive uniform scale only (a number)");
@@ -602,8 +622,12 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             const Mat3 A = d.transform.linear();
             if (!(std::abs(A.determinant()) > 0)) c.fail("transform", "the transform flattens the mesh (a zero scale)");
             try {
-                TriangleMesh mesh = importMesh(d.meshPath);
+                MeshImportOptions opts;
+                opts.unitScale = d.transform.units;
+                TriangleMesh mesh = importMesh(d.meshPath, opts);
                 transformMesh(mesh, A, d.transform.translate);
+                if (const std::string w = unlikelySizeWarning(mesh, "mesh collider " + d.meshPath); !w.empty())
+                    logWarning(w);
                 const MeshReport report = analyseMesh(mesh);
                 if (!report.closed || !report.manifold)
                     throw InputError(d.meshPath, "",

@@ -21,6 +21,9 @@ struct TransformDesc {
     Vec3 translate = Vec3::Zero();
     Vec3 rotateDegrees = Vec3::Zero();
     Vec3 scale = Vec3::Ones();
+    /// Metres per unit of the mesh file (`transform.units`), applied on import in place of the
+    /// file's own unit (FBX's UnitScaleFactor); 0: the file's.
+    Real units = 0;
 
     Mat3 linear() const;  ///< R * S
 };

@@ -57,6 +57,14 @@ TEST_CASE("cli: help and version", "[app][cli]") {
     r = test::runDgv("render --help");
     CHECK(r.exitCode == 0);
     CHECK_THAT(r.output, Catch::Contains("--frames"));
+    // Each subcommand's help names the global options it also takes.
+    for (const char* sub : {"render", "simulate", "info", "farm submit"}) {
+        INFO(sub);
+        r = test::runDgv(std::string(sub) + " --help");
+        CHECK(r.exitCode == 0);
+        CHECK_THAT(r.output, Catch::Contains("--threads N") && Catch::Contains("--quiet") &&
+                                 Catch::Contains("--progress auto|bar|log") && Catch::Contains("Exit codes"));
+    }
     r = test::runDgv("--version");
     CHECK(r.exitCode == 0);
     CHECK_THAT(r.output, Catch::StartsWith("dgv "));
@@ -85,6 +93,15 @@ TEST_CASE("cli: a mistyped command is named with the nearest one", "[app][cli]")
     CHECK(r.output ==
           "dgv: error: unknown command 'frobnicate' (commands: render, simulate, gln, imgdiff, info, "
           "bench, farm; see dgv --help)\n");
+    // A mistyped option is named with the nearest of the command's and the global options.
+    r = test::runDgv("render x.json --widht 64");
+    CHECK(r.exitCode == 2);
+    CHECK(r.output == "dgv: error: unknown option '--widht' for 'render' (did you mean '--width'?)\n");
+    r = test::runDgv("simulate x.json --thraeds=2");
+    CHECK(r.output == "dgv: error: unknown option '--thraeds' for 'simulate' (did you mean '--threads'?)\n");
+    r = test::runDgv("info a.obj --frobnicate");
+    CHECK(r.exitCode == 2);
+    CHECK(r.output == "dgv: error: unknown option '--frobnicate' for 'info' (see dgv info --help)\n");
     // An extra argument after a known command keeps CLI11's message.
     r = test::runDgv("info a.obj b.obj");
     CHECK(r.exitCode == 2);
@@ -393,6 +410,47 @@ TEST_CASE("cli: an FBX mesh in centimetres comes in metres and one line says so"
     CHECK(r.output.find(line, first + 1) == std::string::npos);
     // 193.38 m x 0.01 along z over 8 lattice points: both scales were applied.
     CHECK_THAT(r.output, Catch::Contains("(h = 0.2417;"));
+}
+
+TEST_CASE("cli: transform.units reads a mesh file in another unit, and a mesh of an unlikely size is warned of",
+          "[app][cli]") {
+    test::TempDir dir("cli_units");
+    // A 200-unit cube: a file in centimetres read as metres is 200 m across.
+    std::ofstream(dir.path() / "cube.obj")
+        << "v 0 0 0\nv 200 0 0\nv 200 200 0\nv 0 200 0\nv 0 0 200\nv 200 0 200\nv 200 200 200\nv 0 200 200\n"
+           "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 1 5 8 4\n";
+    auto run = [&](const std::string& transform) {
+        const fs::path scene = dir.path() / "s.json";
+        std::ofstream(scene) << R"({"frames": {"start": 1, "end": 1}, "objects": [{"name": "cube", "mesh": "cube.obj",
+          "resolution": 8)" << transform
+                             << R"(}], "render": {"width": 64, "height": 48, "supersample": 1}})";
+        return test::runDgv("simulate " + q(scene) + " --out " + q(dir.path() / "out") + " --progress log");
+    };
+    auto spacing = [](const std::string& log) {
+        const std::size_t at = log.find("(h = ");
+        return at == std::string::npos ? -1.0 : std::strtod(log.c_str() + at + 5, nullptr);
+    };
+    const auto metres = run("");
+    INFO(metres.output);
+    REQUIRE(metres.exitCode == 0);
+    CHECK_THAT(metres.output, Catch::Contains("dgv: warning: object 'cube' (cube.obj) is 200 m across: is the file in "
+                                              "centimetres or millimetres?"));
+    const auto cm = run(R"(, "transform": {"units": "cm"})");
+    INFO(cm.output);
+    REQUIRE(cm.exitCode == 0);
+    CHECK_THAT(cm.output, !Catch::Contains("across"));
+    CHECK(spacing(cm.output) == Approx(spacing(metres.output) / 100).epsilon(1e-9));
+    const auto tiny = run(R"(, "transform": {"units": 1e-6})");
+    CHECK_THAT(tiny.output, Catch::Contains("is 0.0002 m across, under a millimetre"));
+    const auto bad = run(R"(, "transform": {"units": "furlong"})");
+    CHECK(bad.exitCode == 2);
+    CHECK_THAT(bad.output, Catch::Contains("objects[0].transform.units: expected m, cm, mm, km, in, ft or metres per "
+                                           "unit (a number > 0), got \"furlong\""));
+    std::ofstream(dir.path() / "p.json") << R"({"frames": {"start": 1, "end": 1}, "objects": [{"primitive":
+      {"type": "sphere"}, "transform": {"units": "cm"}}]})";
+    const auto onPrimitive = test::runDgv("simulate " + q(dir.path() / "p.json") + " --out " + q(dir.path() / "o3"));
+    CHECK(onPrimitive.exitCode == 2);
+    CHECK_THAT(onPrimitive.output, Catch::Contains("transform.units: applies to a mesh file"));
 }
 
 TEST_CASE("cli: imgdiff passes identical images and fails different ones", "[app][cli][render]") {

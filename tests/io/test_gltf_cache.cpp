@@ -235,7 +235,8 @@ TEST_CASE("mesh cache: a PLY frame reads back whole, and another file is refused
     CHECK(d.triangles == sphere.triangles);
     REQUIRE(d.positions.size() == sphere.vertices.size());
     Real err = 0;
-    for (std::size_t v = 0; v < d.positions.size(); ++v) err = std::max(err, (d.positions[v] - sphere.vertices[v]).norm());
+    for (std::size_t v = 0; v < d.positions.size(); ++v)
+        err = std::max(err, (d.positions[v] - sphere.vertices[v]).norm());
     CHECK(err < 1e-6);
     CHECK(d.contact[3] == 1.0f);
     CHECK(d.contact[4] == 0.0f);
@@ -275,8 +276,8 @@ TEST_CASE("e2e: simulate --mesh gltf writes the shot's glTF, which Blender impor
     auto blender = [&](int frame, int plyFrame) {
         const std::string cmd = "blender -b --factory-startup -noaudio --python-exit-code 1 -P " + e2e::quote(script) +
                                 " -- " + e2e::quote(glb) + " ball " + std::to_string(frame) + " " +
-                                e2e::quote(meshCachePath(mesh, "ball", plyFrame, MeshCacheFormat::Gltf)) +
-                                " 1e-5 > " + e2e::quote(dir.path() / "blender.log") + " 2>&1";
+                                e2e::quote(meshCachePath(mesh, "ball", plyFrame, MeshCacheFormat::Gltf)) + " 1e-5 > " +
+                                e2e::quote(dir.path() / "blender.log") + " 2>&1";
         const int status = std::system(cmd.c_str());
         INFO(e2e::readAll(dir.path() / "blender.log"));
         return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
