@@ -2,6 +2,7 @@
 
 #include "base/errors.hpp"
 #include "base/progress.hpp"
+#include "io/read_file.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -51,6 +52,8 @@ void checkReadable(const fs::path& path) {
     if (!fs::is_regular_file(st)) throw InputError(p, "", "is not a regular file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(p, "", "cannot be opened for reading (permission denied?)");
+    // A failing disk's EIO is exit 1 (RuntimeError), not assimp's complaint about the content.
+    checkInputReadable(path, "mesh file");
     char byte;
     if (!in.get(byte)) throw InputError(p, "", "the file is empty");
 }

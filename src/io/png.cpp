@@ -2,6 +2,7 @@
 
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/read_file.hpp"
 
 #include <png.h>
 #include <zlib.h>  // Z_RLE
@@ -306,6 +307,8 @@ void writePng(const fs::path& path, const Image& image, const PngWriteOptions& o
 }
 
 Image readPng(const fs::path& path, std::vector<std::pair<std::string, std::string>>* text) {
+    // A failing disk's EIO is exit 1 (RuntimeError), not libpng's "Read Error" on bad content.
+    if (std::error_code ec; fs::is_regular_file(path, ec)) checkInputReadable(path, "PNG file");
     FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) throw InputError(path.string(), "", std::strerror(errno));
     DecodeJob job{};

@@ -15,4 +15,10 @@ namespace dgv {
 /// the messages ("scene file", "curve file").
 std::string readInputFile(const std::filesystem::path& path, const std::string& kind, std::uintmax_t maxBytes);
 
+/// Reads `path` to its end without keeping it, with readInputFile's errors (no size limit). Run
+/// before a library reader (assimp, libpng, OpenVDB) that would report a failing disk's EIO as
+/// bad content: the system's error is then exit 1, the content's stays exit 2. The second read
+/// comes from the page cache.
+void checkInputReadable(const std::filesystem::path& path, const std::string& kind);
+
 }  // namespace dgv

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -237,6 +238,11 @@ std::string serializeState(const StateCheckpoint& c) {
 void writeStateFile(const fs::path& path, const StateCheckpoint& c) { writeTextAtomically(path, serializeState(c)); }
 
 std::string readStateFile(const fs::path& path, StateCheckpoint& out) {
+    // The system's failure (EIO), told apart from a bad file; either way the checkpoint is skipped.
+    auto readError = [] {
+        return std::string("cannot be read: ") + (errno ? std::strerror(errno) : "read error") +
+               " (the system failed to read it, not its content)";
+    };
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) return fs::exists(path, ec) ? "not a regular file" : "no such file";
     std::ifstream in(path, std::ios::binary);
@@ -245,15 +251,18 @@ std::string readStateFile(const fs::path& path, StateCheckpoint& out) {
         // A foreign file, another format version or byte order shows in the first 20 bytes:
         // refused before the rest is read (a 2 GB file was read whole, 4 GB resident, first).
         char head[sizeof kMagic + 3 * sizeof(std::uint32_t)];
+        errno = 0;
         in.read(head, sizeof head);
+        if (in.bad()) return readError();
         StateCheckpoint scratch;
         const std::string early = parseState(std::string(head, static_cast<std::size_t>(in.gcount())), scratch);
         if (!early.empty() && early.rfind("truncated: ", 0) != 0) return early;
         in.clear();
         in.seekg(0);
     }
+    errno = 0;
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) return "cannot read it";
+    if (in.bad()) return readError();
     return parseState(bytes, out);
 }
 

@@ -1,6 +1,7 @@
 #include "io/vdb_read.hpp"
 
 #include "base/errors.hpp"
+#include "io/read_file.hpp"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
@@ -63,6 +64,8 @@ SdfGrid denseLevelSet(const openvdb::FloatGrid& g, std::size_t maxSamples,
 SdfGrid readVdbLevelSet(const std::filesystem::path& path, const std::string& gridName, std::size_t maxSamples) {
     const std::string file = path.string();
     auto bad = [&](const std::string& what) { throw InputError(file, "", what); };
+    // A failing disk's EIO is exit 1 (RuntimeError), not OpenVDB's complaint about the content.
+    if (std::error_code ec; std::filesystem::is_regular_file(path, ec)) checkInputReadable(path, "level-set file");
     {
         std::ifstream in(path, std::ios::binary);
         if (!in) bad("cannot open the file");

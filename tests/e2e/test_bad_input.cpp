@@ -390,16 +390,27 @@ TEST_CASE("e2e: a scene path that is a pipe or a device exits 2 with one line in
     }
 }
 
-TEST_CASE("e2e: an I/O error while reading a scene or curve file exits 1 naming the file and the errno",
-          "[e2e][faults]") {
+TEST_CASE(
+    "e2e: an I/O error while reading a scene, curve, mesh, PNG or level-set file exits 1 naming the file and "
+    "the errno",
+    "[e2e][faults]") {
     // A read error was reported as bad content, exit 2 ("malformed JSON: the file is empty"),
     // which a farm does not retry. /proc/self/mem is a regular file whose read at offset 0 fails
     // with EIO in the process that reads it: a real I/O error without an injection library.
     test::TempDir dir("e2e_read_eio");
     std::ofstream(dir.path() / "ring.txt") << "1 0 0\n0 1 0\n-1 0 0\n0 -1 0\n";
+    // The mesh (assimp), the PNG (libpng) and the level set (OpenVDB) said "the file is empty",
+    // "Read Error" and "not an OpenVDB file", exit 2.
+    std::ofstream(dir.path() / "mesh.json")
+        << R"({"frames": {"start": 1, "end": 1}, "objects": [{"mesh": "/proc/self/mem", "resolution": 8}]})";
+    std::ofstream(dir.path() / "levelset.json")
+        << R"({"frames": {"start": 1, "end": 1}, "objects": [{"primitive": {"type": "sphere"}, "resolution": 8}],
+              "colliders": [{"type": "levelset", "file": "/proc/self/mem"}]})";
     for (const std::string& cmd :
          {std::string("render /proc/self/mem --out o"), std::string("simulate /proc/self/mem --out o"),
-          std::string("gln ring.txt /proc/self/mem")}) {
+          std::string("gln ring.txt /proc/self/mem"), std::string("info /proc/self/mem"),
+          std::string("simulate mesh.json --out o"), std::string("simulate levelset.json --out o"),
+          std::string("imgdiff /proc/self/mem /proc/self/mem")}) {
         const Run r = runDgvIn(dir.path(), cmd);
         INFO(cmd << ": exit " << r.exitCode << ", stderr: " << r.err);
         CHECK(r.exitCode == 1);
@@ -407,6 +418,26 @@ TEST_CASE("e2e: an I/O error while reading a scene or curve file exits 1 naming 
         CHECK_THAT(r.err, Catch::Contains("/proc/self/mem: read error: Input/output error"));
         CHECK_FALSE(fs::exists(dir.path() / "o"));
     }
+}
+
+TEST_CASE("e2e: a state checkpoint that cannot be read (EIO) is skipped with the system's reason", "[e2e][faults]") {
+    // It was skipped as "not a dgv state file", the content blamed for the disk.
+    test::TempDir dir("e2e_state_eio");
+    std::ofstream(dir.path() / "s.json") << R"({"name": "s", "frames": {"start": 1, "end": 4},
+      "objects": [{"primitive": {"type": "sphere", "radius": 0.2}, "resolution": 8,
+                   "transform": {"translate": [0, 0.5, 0]}}], "forces": [{"type": "gravity"}]})";
+    REQUIRE(runDgvIn(dir.path(), "-q simulate s.json --out o --frames 3").exitCode == 0);
+    const fs::path state = dir.path() / "o" / "state" / "s.0003.dgvstate";
+    REQUIRE(fs::exists(state));
+    fs::remove(state);
+    fs::create_symlink("/proc/self/mem", state);
+    const Run r = runDgvIn(dir.path(), "simulate s.json --out o --resume");
+    INFO(r.err);
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.err, Catch::Contains("s.0003.dgvstate: cannot be read: Input/output error (the system failed to "
+                                      "read it, not its content)"));
+    CHECK_THAT(r.err, Catch::Contains("frames 1-2 restored from the checkpoint"));
+    CHECK(readStatsCsv(dir.path() / "o" / "stats.csv").size() == 4);
 }
 
 TEST_CASE("e2e: an output folder that is a dangling symbolic link exits 2 naming the link's target",
