@@ -5,6 +5,7 @@
 #include "geom/primitives.hpp"
 #include "io/mesh_import.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -129,8 +130,34 @@ std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb) {
                                  std::to_string(budget >> 20) + " MiB)");
         }
         used += static_cast<std::size_t>(perPoint * double(objects.back().lattice.size()));
-        logInfo(describe(objects.back()));
     }
+    // A VDB cache at its own voxel size: its world grid's active voxels are about the bodies'
+    // material volume (kept by the dynamics) over the voxel's.
+    const Real vs = scene.output.vdbVoxelSize;
+    if (vdb && vs > 0) {
+        double volume = 0;
+        for (const BuiltObject& o : objects) {
+            const double h = o.lattice.spacing;
+            volume += double(o.lattice.size()) * h * h * h;
+        }
+        const double voxels = volume / (double(vs) * vs * vs);
+        const double need = kVdbBytesPerVoxel * voxels;
+        const double left = used < budget ? double(budget - used) : 0;
+        if (need > left) {
+            // The voxel size whose grid fits, rounded up to two significant digits.
+            double fit = std::cbrt(kVdbBytesPerVoxel * volume / std::max(left, 1.0));
+            const double decade = std::pow(10.0, std::floor(std::log10(fit)) - 1);
+            fit = std::ceil(fit / decade) * decade;
+            char what[400];
+            std::snprintf(what, sizeof what,
+                          "%.3g would make a world grid of ~%.3g voxels a frame (~%.0f MiB), more than the %.0f MiB "
+                          "the memory budget leaves (%zu MiB, the objects take %zu); vdb_voxel_size %.2g would fit, "
+                          "or 0 for the lattice spacing",
+                          double(vs), voxels, need / (1 << 20), left / (1 << 20), budget >> 20, used >> 20, fit);
+            throw InputError(scene.path, "output.vdb_voxel_size", what);
+        }
+    }
+    for (const BuiltObject& o : objects) logInfo(describe(o));  // after the checks: a refusal is one line
     return objects;
 }
 

@@ -131,6 +131,13 @@ TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one l
                     {{"s.json", sphereScene("", R"(, "voxel_size": 1e-6)")}},
                     "render s.json",
                     {"s.json", "objects[0].voxel_size"}},
+                   // A VDB voxel size far under the lattice's was found only when the frame was written,
+                   // out of memory.
+                   {"VDB voxel size over the memory budget",
+                    {{"s.json", sphereScene(R"(, "output": {"vdb": true, "vdb_voxel_size": 1e-5})")}},
+                    "simulate s.json",
+                    {"s.json", "output.vdb_voxel_size", "1e-05 would make a world grid of", "the memory budget leaves",
+                     "vdb_voxel_size", "would fit"}},
                    {"restitution between objects above 1",
                     {{"s.json", sphereScene(R"(, "collision": {"restitution": 1.5})")}},
                     "render s.json",
