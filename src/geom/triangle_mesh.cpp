@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <vector>
 #include <utility>
 
@@ -25,6 +26,28 @@ struct EdgeUse {
 };
 
 }  // namespace
+
+std::vector<int> samePositionRepresentatives(const std::vector<Vec3>& vertices) {
+    const std::size_t n = vertices.size();
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    // Sorted by position, then by index: the first of each run of equal positions is the lowest.
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+        const Vec3& p = vertices[static_cast<std::size_t>(a)];
+        const Vec3& q = vertices[static_cast<std::size_t>(b)];
+        if (p.x() != q.x()) return p.x() < q.x();
+        if (p.y() != q.y()) return p.y() < q.y();
+        if (p.z() != q.z()) return p.z() < q.z();
+        return a < b;
+    });
+    std::vector<int> rep(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto v = static_cast<std::size_t>(order[i]);
+        const bool same = i > 0 && vertices[static_cast<std::size_t>(order[i - 1])] == vertices[v];
+        rep[v] = same ? rep[static_cast<std::size_t>(order[i - 1])] : order[i];
+    }
+    return rep;
+}
 
 std::size_t dropDegenerateTriangles(TriangleMesh& mesh) {
     const std::size_t before = mesh.triangles.size();

@@ -37,6 +37,10 @@ struct MeshReport {
 /// returns how many were dropped. Unreferenced vertices are kept.
 std::size_t dropDegenerateTriangles(TriangleMesh& mesh);
 
+/// For each vertex, the lowest index of the vertices at exactly its position (itself when none
+/// is lower): the weld by position that the importer applies and the voxeliser's topology reads.
+std::vector<int> samePositionRepresentatives(const std::vector<Vec3>& vertices);
+
 /// Bounds of the vertices referenced by triangles (empty box for an empty mesh).
 Box3 meshBounds(const TriangleMesh& mesh);
 

@@ -248,25 +248,7 @@ struct Topology {
 
 Topology analyseTopology(const TriangleMesh& mesh) {
     Topology topo;
-    const std::size_t n = mesh.vertices.size();
-    std::vector<int> order(n);
-    std::iota(order.begin(), order.end(), 0);
-    auto lessPos = [&](int a, int b) {
-        const Vec3& p = mesh.vertices[static_cast<std::size_t>(a)];
-        const Vec3& q = mesh.vertices[static_cast<std::size_t>(b)];
-        if (p.x() != q.x()) return p.x() < q.x();
-        if (p.y() != q.y()) return p.y() < q.y();
-        if (p.z() != q.z()) return p.z() < q.z();
-        return a < b;
-    };
-    std::sort(order.begin(), order.end(), lessPos);
-    topo.weld.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const int v = order[i];
-        const bool same = i > 0 && mesh.vertices[static_cast<std::size_t>(order[i - 1])] ==
-                                       mesh.vertices[static_cast<std::size_t>(v)];
-        topo.weld[static_cast<std::size_t>(v)] = same ? topo.weld[static_cast<std::size_t>(order[i - 1])] : v;
-    }
+    topo.weld = samePositionRepresentatives(mesh.vertices);
     std::vector<std::array<int, 3>> uses;  // (lo, hi, +1 for lo->hi / -1 for hi->lo)
     uses.reserve(mesh.triangles.size() * 3);
     for (const auto& t : mesh.triangles) {

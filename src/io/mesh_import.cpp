@@ -342,26 +342,8 @@ struct Collector {
 /// Merges vertices at exactly the same position (after the node transforms) and drops those no
 /// triangle uses, so that a mesh split into pieces (STL, per-face normals) is closed again.
 void weldByPosition(TriangleMesh& mesh) {
+    const std::vector<int> rep = samePositionRepresentatives(mesh.vertices);
     const std::size_t n = mesh.vertices.size();
-    std::vector<int> order(n);
-    std::iota(order.begin(), order.end(), 0);
-    auto less = [&](int a, int b) {
-        const Vec3& p = mesh.vertices[static_cast<std::size_t>(a)];
-        const Vec3& q = mesh.vertices[static_cast<std::size_t>(b)];
-        if (p.x() != q.x()) return p.x() < q.x();
-        if (p.y() != q.y()) return p.y() < q.y();
-        if (p.z() != q.z()) return p.z() < q.z();
-        return a < b;
-    };
-    std::sort(order.begin(), order.end(), less);
-    std::vector<int> rep(n);  // representative (first in sorted order) of each position
-    for (std::size_t i = 0; i < n; ++i) {
-        const int v = order[i];
-        rep[static_cast<std::size_t>(v)] = (i > 0 && mesh.vertices[static_cast<std::size_t>(order[i - 1])] ==
-                                                         mesh.vertices[static_cast<std::size_t>(v)])
-                                               ? rep[static_cast<std::size_t>(order[i - 1])]
-                                               : v;
-    }
     // New ids in order of first use by the triangles: deterministic and cache-friendly.
     std::vector<int> newId(n, -1);
     std::vector<Vec3> vertices;

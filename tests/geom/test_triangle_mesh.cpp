@@ -141,3 +141,11 @@ TEST_CASE("triangle_mesh: Taubin smoothing takes a voxel staircase off and keeps
     INFO("sphere: largest move " << moved);
     CHECK(moved < 0.02);
 }
+
+TEST_CASE("triangle_mesh: vertices at the same position share the lowest index among them", "[geom]") {
+    const std::vector<Vec3> v = {Vec3(1, 0, 0),      Vec3(0, 0, 0), Vec3(1, 0, 0),   Vec3(0, 0, 0),
+                                 Vec3(0, 0, 1e-300), Vec3(1, 0, 0), Vec3(-0.0, 0, 0)};
+    // -0.0 == 0.0: one position; 1e-300 is another.
+    CHECK(samePositionRepresentatives(v) == std::vector<int>{0, 1, 0, 1, 4, 0, 1});
+    CHECK(samePositionRepresentatives({}).empty());
+}
