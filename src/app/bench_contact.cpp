@@ -8,6 +8,12 @@
 //  - row: N jelly balls (8 voxels' radius, 0.15 m) in a row, the outer ones thrown inwards the
 //    same way, for N = 2, 4, 8 (2 and 4 with --quick), collision.distance exact: the mean
 //    substep per body over the frames with contact, so that its growth with N shows.
+//  - pile: N jelly balls (0.12 m, 12 across) dropped in two rings of N/2 onto the ground, the
+//    upper on the gaps of the lower (for N = 2 one on the other), for N = 2, 4, 8 (2 and 4 with --quick),
+//    collision.distance exact, the default material, gravity: the mean substep per body over frames 3-14 (landing on
+//    each other and spreading over the ground; the 8 roll apart by frame 20), against the same balls with
+//    collision.objects off (each on the ground alone), so that the cost of the contacts between bodies and its growth
+//    with N show.
 // The figures are the simulation's own substep times (FrameStats::stepMs), from 4 substeps
 // (adaptive). Table: docs/benchmarks.md.
 #include "app/bench.hpp"
@@ -18,6 +24,7 @@
 #include "sim/simulation.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -47,6 +54,31 @@ std::string rowScene(int n, Real r, int resolution, Real gap, bool objects, cons
     }
     s << R"(], "collision": { "objects": )" << (objects ? "true" : "false") << R"(, "distance": ")" << distance
       << R"(", "friction": 0.5 } })";
+    return s.str();
+}
+
+// n balls of radius r (`resolution` across) in two layers of n/2 on a ring, the upper ring on
+// the gaps of the lower, dropped from 2 cm above the ground (one ball on another, 0.3 r off its
+// top, for n = 2): every upper ball lands on two lower ones and pushes them apart.
+std::string pileScene(int n, Real r, int resolution, bool objects) {
+    std::ostringstream s;
+    s << R"({ "name": "bench_pile", "frames": { "start": 1, "end": 400, "fps": 24 }, "substeps": 4, "objects": [)";
+    const int ring = std::max(1, n / 2);
+    const Real pi = std::acos(Real(-1));
+    const Real radius = ring == 1 ? 0 : 1.05 * r / std::sin(pi / ring);  // neighbours 0.1 r apart
+    for (int i = 0; i < n; ++i) {
+        const int layer = i < ring ? 0 : 1, k = i % ring;
+        const Real angle = 2 * pi * (k + 0.5 * layer) / ring;
+        const Real rho = ring == 1 ? 0.3 * r * layer : radius;
+        const Real x = rho * std::cos(angle), z = rho * std::sin(angle);
+        const Real y = r + 0.02 + layer * 2.1 * r;
+        s << (i ? "," : "") << R"({ "name": "b)" << i << R"(", "primitive": { "type": "sphere", "radius": )" << r
+          << R"( }, "resolution": )" << resolution << R"(, "transform": { "translate": [)" << x << ", " << y << ", "
+          << z << R"(] } })";  // the default material (the jelly preset)
+    }
+    s << R"(], "forces": [{ "type": "gravity" }], "colliders": [{ "type": "ground", "height": 0, "friction": 0.5 }],
+      "collision": { "objects": )"
+      << (objects ? "true" : "false") << R"(, "distance": "exact", "friction": 0.5 } })";
     return s.str();
 }
 
@@ -95,6 +127,7 @@ Timing run(const std::string& text, int& first, int most, bool whileTouching) {
 
 void contact(std::ostream& out, const BenchOptions& options) {
     const int most = 12 * std::max(1, options.repeats);
+    const int pileFrames = 12;
     {
         // --quick: balls of 8 voxels' radius (the test that runs every benchmark).
         const int across = options.quick ? 16 : 32;
@@ -124,6 +157,16 @@ void contact(std::ostream& out, const BenchOptions& options) {
             << " balls of r 8 voxels, exact, first contact at frame " << first << ", " << t.frames
             << " frames in contact)\n";
         out << tag << "_per_body_ms: " << t.substepMs / n << " ms\n";
+    }
+    for (int n : counts) {
+        int first = 3;  // the pile lands at frame 3 and spreads over the next dozen
+        const Timing t = run(pileScene(n, 0.12, 12, true), first, pileFrames, false);
+        const Timing alone = run(pileScene(n, 0.12, 12, false), first, pileFrames, false);
+        const std::string tag = "contact_pile" + std::to_string(n);
+        out << tag << "_per_body_ms: " << t.substepMs / n << " ms (" << n << " balls of 12 voxels across, exact, "
+            << t.frames << " frames from " << first << ", " << t.contacts << " contact points)\n";
+        out << tag << "_alone_per_body_ms: " << alone.substepMs / n << " ms (collision.objects off)\n";
+        out << tag << "_ratio: " << t.substepMs / alone.substepMs << " (target <= 1.5)\n";
     }
 }
 
