@@ -223,6 +223,7 @@ int runRender(const RenderOptions& options) {
     const std::string glName = renderer.glRenderer();
 
     ensureDirectory(scene.output.dir);
+    removeStaleOutputTemporaries(scene.output.dir);
     FrameScene frameScene;
     frameScene.groundPlane = scene.render.ground;
     // A ground collider is drawn as the render's ground plane, at its height (the highest, if
@@ -520,8 +521,7 @@ int runRender(const RenderOptions& options) {
     if (options.movie) {
         // ffmpeg writes a temporary in the output folder, renamed when it succeeds.
         const fs::path moviePath = fs::path(scene.output.dir) / (scene.name + ".mp4");
-        const fs::path tmp =
-            fs::path(scene.output.dir) / ("." + scene.name + ".mp4.tmp-" + std::to_string(getpid()) + ".mp4");
+        const fs::path tmp = fs::path(scene.output.dir) / ("." + scene.name + ".mp4.tmp-" + temporaryTag() + ".mp4");
         const std::string cmd = "ffmpeg -loglevel error -y -framerate " + std::to_string(scene.fps) +
                                 " -start_number " + std::to_string(first) + " -i " +
                                 shellQuote((fs::path(scene.output.dir) / (scene.name + ".%04d.png")).string()) +

@@ -37,6 +37,7 @@ int runSimulate(const SimulateOptions& options) {
     if (!dynamics.active())
         logWarning(scene.path + ": nothing moves (no forces and no initial velocity); the frames are the rest state");
     ensureDirectory(scene.output.dir);
+    removeStaleOutputTemporaries(scene.output.dir);
     logInfo("simulating frames " + std::to_string(scene.frameStart) + "-" + std::to_string(last) + " of '" +
             scene.name + "' (" +
             (scene.maxSubsteps > scene.substeps

@@ -1,6 +1,8 @@
 #include "app/resume.hpp"
 
 #include "base/errors.hpp"
+#include "base/progress.hpp"
+#include "io/atomic_file.hpp"
 #include "io/png.hpp"
 
 #include <unistd.h>
@@ -88,6 +90,18 @@ bool frameIsComplete(const std::string& path, int frame, int width, int height, 
     if (!frameMatches || !keyMatches) return false;
     if (image) *image = std::move(decoded);
     return true;
+}
+
+void removeStaleOutputTemporaries(const std::string& dir) {
+    int removed = 0;
+    for (const char* sub : {"", "vdb", "mesh", "state"}) {
+        std::error_code ec;
+        const std::filesystem::path folder = std::filesystem::path(dir) / sub;
+        if (std::filesystem::is_directory(folder, ec)) removed += removeStaleTemporaries(folder);
+    }
+    if (removed > 0)
+        logInfo("removed " + std::to_string(removed) + " temporar" + (removed == 1 ? "y" : "ies") + " in " + dir +
+                " left by a run of this host that was killed");
 }
 
 }  // namespace dgv::app

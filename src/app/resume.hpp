@@ -19,6 +19,11 @@ std::string framePath(const std::string& dir, const std::string& name, int frame
 /// a folder (e.g. --out names a file): bad input, found before any work is done.
 void checkOutputFolder(const std::string& dir, const std::string& input, const std::string& where);
 
+/// Removes the temporaries that a killed run of this host left in the output folder and its
+/// vdb/, mesh/ and state/ folders (io/atomic_file.hpp, removeStaleTemporaries), with one line
+/// saying how many when there were any.
+void removeStaleOutputTemporaries(const std::string& dir);
+
 /// --resume: true when `path` holds a complete frame `frame` of `width` x `height` of this
 /// version of the scene: a PNG that decodes in full (a truncated or corrupt file does not), whose
 /// dgv:frame text is `frame` and whose dgv:key text is `key` (io/state_file.hpp, sceneFrameKey:

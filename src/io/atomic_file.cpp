@@ -4,10 +4,14 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 
@@ -66,9 +70,44 @@ int syncPath(const fs::path& p, bool directory) {
 
 }  // namespace
 
+std::string temporaryTag() {
+    // The host's name hashed (FNV-1a, 8 hex digits): a folder shared by a farm's nodes holds
+    // temporaries of processes on other hosts, whose pids mean nothing here.
+    static const std::string tag = [] {
+        char host[256] = {};
+        if (::gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+        std::uint32_t h = 2166136261u;
+        for (const char* c = host; *c; ++c) h = (h ^ static_cast<unsigned char>(*c)) * 16777619u;
+        char hex[16];
+        std::snprintf(hex, sizeof hex, "%08x", h);
+        return std::string(hex);
+    }();
+    return tag + "-" + std::to_string(::getpid());
+}
+
 fs::path temporaryPathFor(const fs::path& target) {
-    const std::string name = "." + target.filename().string() + ".tmp-" + std::to_string(::getpid());
-    return target.parent_path() / name;
+    return target.parent_path() / ("." + target.filename().string() + ".tmp-" + temporaryTag());
+}
+
+int removeStaleTemporaries(const fs::path& dir) {
+    const std::string tag = temporaryTag();
+    const std::string host = tag.substr(0, tag.find('-'));
+    int removed = 0;
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        const std::size_t at = name.rfind(".tmp-" + host + "-");
+        if (name.empty() || name[0] != '.' || at == std::string::npos) continue;
+        // The pid: the digits after the host tag (a movie's temporary adds ".mp4").
+        const char* digits = name.c_str() + at + 5 + host.size() + 1;
+        char* stop = nullptr;
+        const long pid = std::strtol(digits, &stop, 10);
+        if (stop == digits || pid <= 0) continue;
+        if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
+        std::error_code rm;
+        if (it->is_regular_file(rm) && fs::remove(it->path(), rm)) ++removed;
+    }
+    return removed;
 }
 
 void writeFileAtomically(const fs::path& target, const std::function<void(const fs::path& tmpPath)>& write) {

@@ -1,8 +1,9 @@
 #pragma once
 /// @file atomic_file.hpp
 /// @brief Writing files so that a reader never sees half of one: write to a hidden temporary
-/// name in the same folder (".<name>.tmp-<pid>", not mistaken for a frame by sequence
-/// detection), fsync, rename over the final name. On failure the temporary is removed.
+/// name in the same folder (".<name>.tmp-<host>-<pid>", <host> a hash of the host's name; not
+/// mistaken for a frame by sequence detection), fsync, rename over the final name. On failure
+/// the temporary is removed; one a killed process left is removed by removeStaleTemporaries.
 
 #include <filesystem>
 #include <functional>
@@ -10,8 +11,17 @@
 
 namespace dgv {
 
+/// "<host>-<pid>": this process's temporaries' tag.
+std::string temporaryTag();
+
 /// The temporary name used for `target`.
 std::filesystem::path temporaryPathFor(const std::filesystem::path& target);
+
+/// Removes the temporaries in `dir` (not its subfolders) that a process of this host left when
+/// it was killed (SIGKILL, a node's power cut: no handler ran): those tagged with this host whose
+/// pid no longer runs. Another host's are left alone (a farm's shared folder: their pids mean
+/// nothing here), and so are a live process's. Returns how many were removed.
+int removeStaleTemporaries(const std::filesystem::path& dir);
 
 /// Calls write(tmpPath) to produce the file under a temporary name, then fsyncs and renames it
 /// to `target`. If write throws, or the sync or rename fails, the temporary is removed and a

@@ -301,7 +301,7 @@ void readVoxel(ObjectReader& r, VoxeliseSettings& v) {
     }
 }
 
-/// A scene or object name names files such as .<name>.0001.png.tmp-<pid>: at most 200
+/// A scene or object name names files such as .<name>.0001.png.tmp-<host>-<pid>: at most 200
 /// characters keeps every one under the 255 a file name may have (a longer one failed only after
 /// the setup, on the first frame's write).
 void limitNameLength(const ObjectReader& r, const std::string& name, const char* names) {

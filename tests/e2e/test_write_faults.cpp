@@ -10,10 +10,13 @@
 #include <catch2/catch.hpp>
 
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <csignal>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 using namespace dgv;
@@ -106,4 +109,29 @@ TEST_CASE("write faults: a full disk fails writePng and the PNG queue, leaving n
     }
     writePng(target, image);  // the limit lifted: the same write succeeds
     CHECK(fs::file_size(target) > 8192);
+}
+
+TEST_CASE("write faults: a run removes the temporaries a killed run of this host left in its folders",
+          "[e2e][faults]") {
+    // SIGKILL runs no handler: the temporary being written stayed behind under its hidden name.
+    test::TempDir dir("faults_stale_temporaries");
+    std::ofstream(dir.path() / "s.json") << R"({"name": "s", "frames": {"start": 1, "end": 2},
+      "objects": [{"primitive": {"type": "sphere", "radius": 0.2}, "resolution": 8, "velocity": [0, -1, 0]}]})";
+    const pid_t child = fork();
+    if (child == 0) _exit(0);
+    REQUIRE(child > 0);
+    int status = 0;
+    REQUIRE(waitpid(child, &status, 0) == child);
+    const std::string tag = temporaryTag().substr(0, 8) + "-" + std::to_string(child);
+    const fs::path out = dir.path() / "o";
+    fs::create_directories(out / "state");
+    std::ofstream(out / (".s.0001.png.tmp-" + tag)) << "half a frame";
+    std::ofstream(out / "state" / (".s.0002.dgvstate.tmp-" + tag)) << "half a checkpoint";
+    const auto r = test::runDgv("simulate " + (dir.path() / "s.json").string() + " --out " + out.string());
+    INFO(r.output);
+    REQUIRE(r.exitCode == 0);
+    CHECK_THAT(r.output, Catch::Contains("removed 2 temporaries in " + out.string() +
+                                         " left by a run of this host that was killed"));
+    CHECK_FALSE(fs::exists(out / (".s.0001.png.tmp-" + tag)));
+    CHECK_FALSE(fs::exists(out / "state" / (".s.0002.dgvstate.tmp-" + tag)));
 }

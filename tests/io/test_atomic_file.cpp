@@ -7,8 +7,10 @@
 
 #include <catch2/catch.hpp>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -76,7 +78,9 @@ TEST_CASE("atomic_file: temporary names are hidden and not frame-like", "[io]") 
     const fs::path tmp = temporaryPathFor("out/shot/shot.0042.png");
     CHECK(tmp.parent_path() == fs::path("out/shot"));
     const std::string name = tmp.filename().string();
-    CHECK(name == ".shot.0042.png.tmp-" + std::to_string(getpid()));
+    CHECK(name == ".shot.0042.png.tmp-" + temporaryTag());
+    // The tag: this host's name hashed to 8 hex digits, then the pid.
+    CHECK(std::regex_match(temporaryTag(), std::regex("[0-9a-f]{8}-" + std::to_string(getpid()))));
     CHECK(name.front() == '.');
     // Sequence detection keys on a trailing digit group before the extension: the name must not
     // end in "<digits>.png" (or .vdb) and its extension is not .png.
@@ -107,4 +111,33 @@ TEST_CASE("atomic_file: ensureDirectory creates folders and refuses files", "[io
     std::ofstream(dir.path() / "f") << "x";
     CHECK_THROWS_AS(ensureDirectory(dir.path() / "f"), RuntimeError);
     CHECK_THROWS_AS(ensureDirectory(dir.path() / "f" / "sub"), RuntimeError);
+}
+
+TEST_CASE("atomic_file: a killed run's temporaries of this host are removed, a live or another host's are not",
+          "[io]") {
+    test::TempDir dir("atomic_stale");
+    const std::string host = temporaryTag().substr(0, 8);
+    // A pid that is not running: a child that has exited and been reaped.
+    const pid_t child = fork();
+    if (child == 0) _exit(0);
+    REQUIRE(child > 0);
+    int status = 0;
+    REQUIRE(waitpid(child, &status, 0) == child);
+    const std::string dead = std::to_string(child);
+    std::string foreign = host;  // another host's tag: the first digit changed
+    foreign[0] = foreign[0] == '0' ? '1' : '0';
+    const std::vector<std::string> stale = {".s.0001.png.tmp-" + host + "-" + dead,
+                                            ".s.mp4.tmp-" + host + "-" + dead + ".mp4"};
+    const std::vector<std::string> kept = {
+        ".s.0002.png.tmp-" + host + "-" + std::to_string(getpid()),  // this process: alive
+        ".s.0003.png.tmp-" + foreign + "-" + dead,                   // another host's
+        "s.0004.png",                                                // a frame
+        "notes.tmp-" + host + "-" + dead};                           // not hidden: not dgv's
+    for (const std::string& n : stale) std::ofstream(dir.path() / n) << "x";
+    for (const std::string& n : kept) std::ofstream(dir.path() / n) << "x";
+    CHECK(removeStaleTemporaries(dir.path()) == 2);
+    std::vector<std::string> left = kept;
+    std::sort(left.begin(), left.end());
+    CHECK(names(dir.path()) == left);
+    CHECK(removeStaleTemporaries(dir.path() / "missing") == 0);
 }
