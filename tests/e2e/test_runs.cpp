@@ -39,7 +39,7 @@ std::string frameName(int frame) {
     return buf;
 }
 
-/// The files in `dir` (names only), sorted; temporaries (".name.tmp-PID") included.
+/// The files in `dir` (names only), sorted; temporaries (".name.tmp-HOST-PID") included.
 std::vector<std::string> namesIn(const fs::path& dir) {
     return fs::exists(dir) ? snapshot(dir) : std::vector<std::string>{};
 }
