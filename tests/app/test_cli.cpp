@@ -94,14 +94,14 @@ TEST_CASE("cli: a mistyped command is named with the nearest one", "[app][cli]")
           "dgv: error: unknown command 'frobnicate' (commands: render, simulate, gln, imgdiff, info, "
           "bench, farm; see dgv --help)\n");
     // A mistyped option is named with the nearest of the command's and the global options.
-    r = test::runDgv("render x.json --widht 64");
-    CHECK(r.exitCode == 2);
-    CHECK(r.output == "dgv: error: unknown option '--widht' for 'render' (did you mean '--width'?)\n");
-    r = test::runDgv("simulate x.json --thraeds=2");
-    CHECK(r.output == "dgv: error: unknown option '--thraeds' for 'simulate' (did you mean '--threads'?)\n");
-    r = test::runDgv("info a.obj --frobnicate");
-    CHECK(r.exitCode == 2);
-    CHECK(r.output == "dgv: error: unknown option '--frobnicate' for 'info' (see dgv info --help)\n");
+    for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+             {"render x.json --widht 64", "unknown option '--widht' for 'render' (did you mean '--width'?)"},
+             {"simulate x.json --thraeds=2", "unknown option '--thraeds' for 'simulate' (did you mean '--threads'?)"},
+             {"info a.obj --frobnicate", "unknown option '--frobnicate' for 'info' (see dgv info --help)"}}) {
+        r = test::runDgv(args);
+        CHECK(r.exitCode == 2);
+        CHECK(r.output == "dgv: error: " + message + "\n");
+    }
     // An extra argument after a known command keeps CLI11's message.
     r = test::runDgv("info a.obj b.obj");
     CHECK(r.exitCode == 2);
