@@ -512,9 +512,10 @@ int runRender(const RenderOptions& options) {
         gap.pixel(0, 0)[3] = rs.transparentBackground ? 0 : 65535;
         const fs::path sheetPath = fs::path(scene.output.dir) / (scene.name + ".contact.png");
         PngWriteOptions sheetPng = png;
-        sheetPng.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
-                         {"dgv:scene", scene.path},
-                         {"dgv:frames", std::to_string(first) + "-" + std::to_string(last)}};
+        sheetPng.text = {
+            {"Software", std::string("dgv ") + DGV_VERSION_STRING},
+            {"dgv:scene", fs::path(scene.path).filename().string()},  // as the frames': not the path as typed
+            {"dgv:frames", std::to_string(first) + "-" + std::to_string(last)}};
         writePng(sheetPath, contactSheet(thumbs, gap), sheetPng);
         logInfo("wrote the contact sheet " + sheetPath.string());
     }

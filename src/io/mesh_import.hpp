@@ -48,7 +48,8 @@ TriangleMesh importMesh(const std::filesystem::path& path, const MeshImportOptio
 
 /// A warning for a mesh whose size in metres is unlikely for a shot, which usually means a file
 /// in another unit: larger than 100 m across ("... 150 m across: is the file in centimetres? ...")
-/// or smaller than 1 mm; "" otherwise. `what` names the mesh ("object 'duck' (duck.dae)").
+/// or smaller than 1 mm, or lying more than 10⁴ times its size from the origin (floats keep
+/// about 7 digits); "" otherwise. `what` names the mesh ("object 'duck' (duck.dae)").
 std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& what);
 
 }  // namespace dgv

@@ -440,6 +440,10 @@ TEST_CASE("cli: transform.units reads a mesh file in another unit, and a mesh of
     REQUIRE(cm.exitCode == 0);
     CHECK_THAT(cm.output, !Catch::Contains("across"));
     CHECK(spacing(cm.output) == Approx(spacing(metres.output) / 100).epsilon(1e-9));
+    // 2 m across, 10⁵ m out: floats step its surface by about a centimetre.
+    const auto far = run(R"(, "transform": {"units": "cm", "translate": [100000, 0, 0]})");
+    CHECK_THAT(far.output, Catch::Contains("object 'cube' (cube.obj) lies 1e+05 m from the origin, 5e+04 times its "
+                                           "size: floats keep about 7 digits"));
     const auto tiny = run(R"(, "transform": {"units": 1e-6})");
     CHECK_THAT(tiny.output, Catch::Contains("is 0.0002 m across, under a millimetre"));
     const auto bad = run(R"(, "transform": {"units": "furlong"})");
