@@ -542,6 +542,12 @@ int runRender(const RenderOptions& options) {
             std::getline(in, said);
         }
         fs::remove(log, ec);
+        // SIGINT/SIGTERM while ffmpeg ran (system() waits through it): no movie is kept, and the
+        // run ends as interrupted (main's handler: exit 130), not with "wrote the preview movie".
+        if (cancelRequested()) {
+            fs::remove(tmp, ec);
+            throw RuntimeError("interrupted while ffmpeg made " + moviePath.string());
+        }
         std::string problem;
         if (rc != 0)
             problem = "exit status " + std::to_string(rc);

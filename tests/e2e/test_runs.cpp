@@ -201,6 +201,25 @@ TEST_CASE("e2e: --movie does not trust ffmpeg's exit status: a broken movie is n
     CHECK(namesIn(dir.path() / "m") == frameNames(1, 2));  // no movie, no temporary, no log
 }
 
+TEST_CASE("e2e: SIGTERM while ffmpeg makes the movie ends the run as interrupted and keeps no movie", "[e2e][faults]") {
+    // The ffmpeg step went on after a SIGTERM and exited 0 with "wrote the preview movie". The
+    // stand-in sends dgv (whose pid ends the temporary's name) SIGTERM, then writes its output.
+    test::TempDir dir("e2e_movie_term");
+    writeScene(dir.path(), 2);
+    fs::create_directories(dir.path() / "bin");
+    const fs::path fake = dir.path() / "bin" / "ffmpeg";
+    std::ofstream(fake) << "#!/bin/sh\nfor last; do :; done\npid=${last%.mp4}; pid=${pid##*-}\n"
+                           "kill -TERM \"$pid\"\nprintf 'x' > \"$last\"\nexit 0\n";
+    fs::permissions(fake, fs::perms::owner_all);
+    const Run r =
+        runDgvIn(dir.path(), "render small.json --movie --out m", "PATH=" + quote(dir.path() / "bin") + ":\"$PATH\"");
+    INFO("stderr: " << r.err);
+    CHECK(r.exitCode == 130);
+    CHECK_THAT(r.err, Catch::Contains("interrupted"));
+    CHECK_THAT(r.err, !Catch::Contains("wrote the preview movie"));
+    CHECK(namesIn(dir.path() / "m") == frameNames(1, 2));  // no movie, no temporary, no log
+}
+
 TEST_CASE("e2e: a run killed by SIGTERM leaves complete frames and --resume finishes it byte-identically",
           "[e2e][resume][faults][slow]") {
     test::TempDir dir("e2e_kill");
