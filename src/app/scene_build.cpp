@@ -41,11 +41,12 @@ TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, in
         }
     }
     transformMesh(mesh, desc.transform.linear(), desc.transform.translate);
-    if (!desc.isPrimitive) {
-        const std::string warning = unlikelySizeWarning(
-            mesh, "object '" + desc.name + "' (" + std::filesystem::path(desc.meshPath).filename().string() + ")");
-        if (!warning.empty()) logWarning(warning);
-    }
+    const std::string warning =
+        desc.isPrimitive
+            ? unlikelySizeWarning(mesh, "object '" + desc.name + "' (a primitive)", false)
+            : unlikelySizeWarning(mesh, "object '" + desc.name + "' (" +
+                                            std::filesystem::path(desc.meshPath).filename().string() + ")");
+    if (!warning.empty()) logWarning(warning);
     return mesh;
 }
 

@@ -379,7 +379,7 @@ double unitScaleOf(const aiScene* scene) {
 
 }  // namespace
 
-std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& what) {
+std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& what, bool fromFile) {
     if (mesh.vertices.empty()) return "";
     Vec3 lo = mesh.vertices[0], hi = lo;
     for (const Vec3& v : mesh.vertices) {
@@ -388,7 +388,19 @@ std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& wha
     }
     const Real size = (hi - lo).maxCoeff();
     char line[300];
-    if (size > 100) {
+    if (!fromFile && (size > 1e6 || size < 1e-6)) {
+        // A primitive is given in metres: only sizes past what the renderer's floats resolve.
+        std::snprintf(line, sizeof line,
+                      " is %.3g m across: the renderer's floats resolve 1e-6 to 1e6 m objects; set its size in metres",
+                      size);
+    } else if (!fromFile && size >= 1e-6 && size <= 1e6) {
+        const Real far = ((hi + lo) / 2).norm();
+        if (!(far > 1e4 * size)) return "";
+        std::snprintf(line, sizeof line,
+                      " lies %.3g m from the origin, %.3g times its size: floats keep about 7 digits, so its "
+                      "surface is stepped at ~%.2g m there; move the scene near the origin",
+                      far, far / size, far * 1.2e-7);
+    } else if (size > 100) {
         std::snprintf(line, sizeof line,
                       " is %.4g m across: is the file in centimetres or millimetres? transform.units \"cm\" or "
                       "\"mm\" reads it so (or transform.scale)",

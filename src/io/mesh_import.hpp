@@ -49,7 +49,9 @@ TriangleMesh importMesh(const std::filesystem::path& path, const MeshImportOptio
 /// A warning for a mesh whose size in metres is unlikely for a shot, which usually means a file
 /// in another unit: larger than 100 m across ("... 150 m across: is the file in centimetres? ...")
 /// or smaller than 1 mm, or lying more than 10⁴ times its size from the origin (floats keep
-/// about 7 digits); "" otherwise. `what` names the mesh ("object 'duck' (duck.dae)").
-std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& what);
+/// about 7 digits); "" otherwise. `what` names the mesh ("object 'duck' (duck.dae)"). A mesh not
+/// from a file (`fromFile` false: a primitive, given in metres) is warned of only outside
+/// 1e-6..1e6 m or far from the origin.
+std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& what, bool fromFile = true);
 
 }  // namespace dgv
