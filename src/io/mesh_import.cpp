@@ -387,39 +387,33 @@ std::string unlikelySizeWarning(const TriangleMesh& mesh, const std::string& wha
         hi = hi.cwiseMax(v);
     }
     const Real size = (hi - lo).maxCoeff();
+    // Far from the origin for its size: a mesh file's floats (and the renderer's) keep about 7
+    // digits, so the surface is stepped at distance × 1e-7 (a 0.5 m ball 1e6 m out lost its
+    // closure and gained 1.4 % of its volume).
+    const Real far = ((hi + lo) / 2).norm();
     char line[300];
     if (!fromFile && (size > 1e6 || size < 1e-6)) {
         // A primitive is given in metres: only sizes past what the renderer's floats resolve.
         std::snprintf(line, sizeof line,
                       " is %.3g m across: the renderer's floats resolve 1e-6 to 1e6 m objects; set its size in metres",
                       size);
-    } else if (!fromFile && size >= 1e-6 && size <= 1e6) {
-        const Real far = ((hi + lo) / 2).norm();
-        if (!(far > 1e4 * size)) return "";
-        std::snprintf(line, sizeof line,
-                      " lies %.3g m from the origin, %.3g times its size: floats keep about 7 digits, so its "
-                      "surface is stepped at ~%.2g m there; move the scene near the origin",
-                      far, far / size, far * 1.2e-7);
-    } else if (size > 100) {
+    } else if (fromFile && size > 100) {
         std::snprintf(line, sizeof line,
                       " is %.4g m across: is the file in centimetres or millimetres? transform.units \"cm\" or "
                       "\"mm\" reads it so (or transform.scale)",
                       size);
-    } else if (size < 1e-3) {
+    } else if (fromFile && size < 1e-3) {
         std::snprintf(line, sizeof line,
                       " is %.3g m across, under a millimetre: is the file in another unit? transform.units "
                       "(\"m\", \"cm\", \"mm\", \"in\", \"ft\" or metres per unit) or transform.scale sets it",
                       size);
-    } else {
-        // Far from the origin for its size: a mesh file's floats (and the renderer's) keep about
-        // 7 digits, so the surface is stepped at distance × 1e-7 (a 0.5 m ball 1e6 m out lost its
-        // closure and gained 1.4 % of its volume).
-        const Real far = ((hi + lo) / 2).norm();
-        if (!(far > 1e4 * size)) return "";
+    } else if (far > 1e4 * size) {
         std::snprintf(line, sizeof line,
                       " lies %.3g m from the origin, %.3g times its size: floats keep about 7 digits, so its "
                       "surface is stepped at ~%.2g m there; move the scene near the origin",
                       far, far / size, far * 1.2e-7);
+    } else {
+        return "";
     }
     return what + line;
 }

@@ -181,18 +181,28 @@ TEST_CASE("e2e: --resume never keeps frames of an earlier version of the scene o
         CHECK(readAll(dir.path() / "abs" / frameName(f)) == readAll(dir.path() / "part" / frameName(f)));
 }
 
+namespace {
+
+/// `render small.json --movie --out m` in `dir` with a stand-in ffmpeg (a shell script whose
+/// last argument is the movie's temporary) first on PATH.
+Run renderMovieWith(const fs::path& dir, const std::string& ffmpegScript) {
+    writeScene(dir, 2);
+    fs::create_directories(dir / "bin");
+    const fs::path fake = dir / "bin" / "ffmpeg";
+    std::ofstream(fake) << "#!/bin/sh\nfor last; do :; done\n" << ffmpegScript;
+    fs::permissions(fake, fs::perms::owner_all);
+    return runDgvIn(dir, "render small.json --movie --out m", "PATH=" + quote(dir / "bin") + ":\"$PATH\"");
+}
+
+}  // namespace
+
 TEST_CASE("e2e: --movie does not trust ffmpeg's exit status: a broken movie is not kept", "[e2e][faults]") {
     // ffmpeg on a full disk prints "Error writing trailer ... No space left on device", exits 0
     // and leaves a few broken bytes. A stand-in does just that (no ffmpeg is needed for the test).
     test::TempDir dir("e2e_movie");
-    writeScene(dir.path(), 2);
-    fs::create_directories(dir.path() / "bin");
-    const fs::path fake = dir.path() / "bin" / "ffmpeg";
-    std::ofstream(fake) << "#!/bin/sh\nfor last; do :; done\nprintf 'x' > \"$last\"\n"
-                           "echo \"Error writing trailer of $last: No space left on device\" >&2\nexit 0\n";
-    fs::permissions(fake, fs::perms::owner_all);
-    const Run r =
-        runDgvIn(dir.path(), "render small.json --movie --out m", "PATH=" + quote(dir.path() / "bin") + ":\"$PATH\"");
+    const Run r = renderMovieWith(
+        dir.path(),
+        "printf 'x' > \"$last\"\necho \"Error writing trailer of $last: No space left on device\" >&2\nexit 0\n");
     INFO("stderr: " << r.err);
     CHECK(r.exitCode == 1);
     CHECK_THAT(r.err, Catch::Contains("ffmpeg failed making"));
@@ -205,14 +215,8 @@ TEST_CASE("e2e: SIGTERM while ffmpeg makes the movie ends the run as interrupted
     // The ffmpeg step went on after a SIGTERM and exited 0 with "wrote the preview movie". The
     // stand-in sends dgv (whose pid ends the temporary's name) SIGTERM, then writes its output.
     test::TempDir dir("e2e_movie_term");
-    writeScene(dir.path(), 2);
-    fs::create_directories(dir.path() / "bin");
-    const fs::path fake = dir.path() / "bin" / "ffmpeg";
-    std::ofstream(fake) << "#!/bin/sh\nfor last; do :; done\npid=${last%.mp4}; pid=${pid##*-}\n"
-                           "kill -TERM \"$pid\"\nprintf 'x' > \"$last\"\nexit 0\n";
-    fs::permissions(fake, fs::perms::owner_all);
-    const Run r =
-        runDgvIn(dir.path(), "render small.json --movie --out m", "PATH=" + quote(dir.path() / "bin") + ":\"$PATH\"");
+    const Run r = renderMovieWith(
+        dir.path(), "pid=${last%.mp4}; pid=${pid##*-}\nkill -TERM \"$pid\"\nprintf 'x' > \"$last\"\nexit 0\n");
     INFO("stderr: " << r.err);
     CHECK(r.exitCode == 130);
     CHECK_THAT(r.err, Catch::Contains("interrupted"));
