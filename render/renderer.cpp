@@ -247,6 +247,8 @@ std::vector<std::string> RenderSettings::validate() const {
     }
     if (!(creaseDegrees >= 0 && creaseDegrees <= 180))
         problems.push_back("crease_degrees: expected 0..180, got " + std::to_string(creaseDegrees));
+    if (!(shadowSoftness >= 0 && shadowSoftness <= 15))
+        problems.push_back("shadow_softness: expected 0..15 degrees, got " + std::to_string(shadowSoftness));
     for (int i = 0; i < 3; ++i) {
         if (!(background[i] >= 0 && background[i] <= 1)) {
             problems.push_back("background: expected linear RGB components in [0,1]");
@@ -294,8 +296,10 @@ struct Renderer::Impl {
     // The ground at output size (premultiplied linear), composited under the meshes.
     GLuint groundFbo = 0, groundColour = 0;
     int targetWidth = 0, targetHeight = 0, targetFactor = 0;
-    // Key-light shadow map.
-    GLuint shadowFbo = 0, shadowDepth = 0;
+    // Key-light shadow map; depthSampler reads it without comparison (the soft shadows'
+    // blocker search, texture unit 3).
+    GLuint shadowFbo = 0, shadowDepth = 0, depthSampler = 0;
+    bool softShadows = false;
     // Ground: a 4x4 grid of vertices (3x3 cells, no T-junctions); the centre cell covers where
     // shadows can fall and is drawn with the shadowed program, the other 8 without shadows.
     GLuint groundVao = 0, groundVbo = 0, groundEbo = 0;
@@ -327,11 +331,17 @@ struct Renderer::Impl {
         // (lighting.glsl, DGV_QUAD_PCF; fine derivatives, core in GL 4.5). At 1x a quad spans
         // 2x2 output pixels, which would show as blocks in the penumbra: four taps each there.
         const bool quadPcf = s.sharedShadowTaps && s.supersample >= 2 && hasGlExtension("GL_ARB_derivative_control");
-        const std::string pcf = quadPcf ? "#define DGV_QUAD_PCF 1\n" : "";
+        // Soft shadows: the blocker search gathers depths (GL 4.0 / GL_ARB_texture_gather); the
+        // ground at output size shares its search over 2x2 pixels where fine derivatives exist.
+        softShadows = s.shadowSoftness > 0 && hasGlExtension("GL_ARB_texture_gather");
+        const std::string soft = softShadows ? "#define DGV_SOFT_SHADOWS 1\n" : "";
+        const std::string groundSoft =
+            soft + (softShadows && hasGlExtension("GL_ARB_derivative_control") ? "#define DGV_QUAD_SEARCH 1\n" : "");
+        const std::string pcf = soft + (quadPcf ? "#define DGV_QUAD_PCF 1\n" : "");
         meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf);
         meshPlainProgram =
             ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf + "#define DGV_SCALAR 0\n");
-        groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl");
+        groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", groundSoft);
         groundPlainProgram =
             ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", "#define DGV_SHADOWS 0\n");
         shadowProgram = ShaderProgram(dir, "shadow.vert", "shadow.frag");
@@ -403,6 +413,12 @@ struct Renderer::Impl {
         glReadBuffer(GL_NONE);
         checkFramebuffer("shadow map");
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glGenSamplers(1, &depthSampler);
+        glSamplerParameteri(depthSampler, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glSamplerParameteri(depthSampler, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glSamplerParameteri(depthSampler, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glSamplerParameteri(depthSampler, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        glSamplerParameteri(depthSampler, GL_TEXTURE_COMPARE_MODE, GL_NONE);
         checkGlError("setting up the renderer");
     }
 
@@ -421,6 +437,7 @@ struct Renderer::Impl {
         glDeleteBuffers(1, &groundEbo);
         glDeleteFramebuffers(1, &shadowFbo);
         glDeleteTextures(1, &shadowDepth);
+        glDeleteSamplers(1, &depthSampler);
         if (decalTexture) glDeleteTextures(1, &decalTexture);
         releaseTargets();
     }
@@ -705,6 +722,9 @@ struct Renderer::Impl {
         Vec3 keyDir, fillDir, rimDir;
         Mat4 shadowFromWorld = Mat4::Identity();
         Real shadowRadius = 0, normalOffset = 0;
+        // Soft shadows (lighting.glsl): filter radius per unit of map depth, its largest value
+        // (both in texture units), and the map depth of the scene's nearest point to the light.
+        Real penumbraPerDepth = 0, searchRadius = 0, blockerNear = 0;
         bool shadows = false;
     };
 
@@ -722,6 +742,12 @@ struct Renderer::Impl {
         setFloat(p, "uNormalOffset", l.normalOffset);
         setInt(p, "uShadowsOn", l.shadows ? 1 : 0);
         setInt(p, "uShadowMap", 0);
+        if (softShadows) {
+            setInt(p, "uShadowDepth", 3);
+            setFloat(p, "uPenumbraPerDepth", l.penumbraPerDepth);
+            setFloat(p, "uSearchRadius", l.searchRadius);
+            setFloat(p, "uBlockerNear", l.blockerNear);
+        }
     }
 
     /// Rasterises the ground marks into decalTexture; returns the rectangle (x0, z0, 1/width,
@@ -901,6 +927,13 @@ struct Renderer::Impl {
             const Real texelWorld = 2.0 * radius / kShadowMapSize;
             lights.shadowRadius = 1.0 / kShadowMapSize;  // 4 taps at +-1 texel: ~4-texel penumbra
             lights.normalOffset = 1.5 * texelWorld;
+            // A light disc of angular radius theta widens a penumbra by tan(theta) per unit of
+            // distance behind its blocker on either side: the map spans 2 radius across and
+            // 4 radius in depth, so the filter radius is 2 tan(theta) per unit of map depth.
+            // The bounding sphere starts at depth 1/4 (the light sits 2 radius from its centre).
+            lights.penumbraPerDepth = 2.0 * std::tan(settings.shadowSoftness * 3.14159265358979323846 / 180);
+            lights.searchRadius = 64.0 / kShadowMapSize;
+            lights.blockerNear = 0.25;
 
             glBindFramebuffer(GL_FRAMEBUFFER, shadowFbo);
             glViewport(0, 0, kShadowMapSize, kShadowMapSize);
@@ -946,6 +979,11 @@ struct Renderer::Impl {
         glDepthFunc(GL_LESS);
         glDepthMask(GL_TRUE);
         glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        if (softShadows) {
+            glActiveTexture(GL_TEXTURE3);
+            glBindTexture(GL_TEXTURE_2D, shadowDepth);
+            glBindSampler(3, depthSampler);
+        }
         glActiveTexture(GL_TEXTURE0);
         glBindTexture(GL_TEXTURE_2D, shadowDepth);
 
@@ -1004,7 +1042,8 @@ struct Renderer::Impl {
             // the ground, an ellipse whose bounding box is the centre cell (plus the PCF reach).
             const Vec3& k = lights.keyDir;
             const Vec3 shadowCentre = centre - k * ((centre.y() - groundY) / k.y());
-            const Real reach = 1.05 * radius + 4.0 * lights.shadowRadius * radius;
+            const Real reach = 1.05 * radius + 4.0 * lights.shadowRadius * radius +
+                               (softShadows ? 2.0 * lights.searchRadius * radius : 0.0);
             const Real halfX = reach * std::sqrt(1 + (k.x() / k.y()) * (k.x() / k.y()));
             const Real halfZ = reach * std::sqrt(1 + (k.z() / k.y()) * (k.z() / k.y()));
             const Real outer[4] = {centre.x() - fadeOuter, centre.x() + fadeOuter, centre.z() - fadeOuter,

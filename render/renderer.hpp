@@ -117,6 +117,10 @@ struct RenderSettings {
     /// halves, and pixels stay within 4/255 of the four-tap result but for a few on hard shadow
     /// edges. false: four taps per subsample (the reference the tests compare with).
     bool sharedShadowTaps = true;
+    /// The key light's angular radius, degrees: a shadow's penumbra widens with the distance
+    /// from its blocker (percentage-closer soft shadows, shaders/lighting.glsl), hard at a
+    /// contact and soft further off. 0: a point light (the 4-tap kernel alone), 0..15.
+    double shadowSoftness = 3;
     /// Finish the GL work after each pass to time it (Timings::shadowMs...). Off in production
     /// renders: the waits stop llvmpipe overlapping passes.
     bool profilePasses = false;

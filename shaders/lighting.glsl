@@ -4,14 +4,27 @@
 // no shadow can reach with that variant: on llvmpipe every PCF tap costs on every fragment).
 // DGV_QUAD_PCF 1 (the supersampled mesh pass, n >= 2): the fragments of each 2x2 quad share
 // their PCF taps through fine derivatives, two taps each instead of four (keyVisibility).
+// DGV_SOFT_SHADOWS 1 (render.shadow_softness > 0): percentage-closer soft shadows from a key
+// light of angular radius theta (blockerSearch, softVisibility; docs/rendering.md, "Soft
+// shadows"). DGV_QUAD_SEARCH 1 shares the blocker search over each 2x2 quad (the default with
+// DGV_QUAD_PCF; the ground at output size sets it alone).
 #ifndef DGV_SHADOWS
 #define DGV_SHADOWS 1
 #endif
 #ifndef DGV_QUAD_PCF
 #define DGV_QUAD_PCF 0
 #endif
-#if DGV_QUAD_PCF
+#ifndef DGV_SOFT_SHADOWS
+#define DGV_SOFT_SHADOWS 0
+#endif
+#ifndef DGV_QUAD_SEARCH
+#define DGV_QUAD_SEARCH DGV_QUAD_PCF
+#endif
+#if DGV_QUAD_PCF || DGV_QUAD_SEARCH
 #extension GL_ARB_derivative_control : require
+#endif
+#if DGV_SOFT_SHADOWS
+#extension GL_ARB_texture_gather : require
 #endif
 
 uniform vec3 uKeyDir;
@@ -29,21 +42,21 @@ uniform float uShadowRadius;    // tap offset, in shadow-map texture units (~1 t
 uniform float uNormalOffset;    // receiver offset along the normal, world units
 uniform int uShadowsOn;
 uniform int uFootprint;         // 1: spread the taps over the output pixel (see keyVisibility)
+// Soft shadows (DGV_SOFT_SHADOWS 1): the key light is a disc of angular radius theta, so a
+// shadow's penumbra widens with the distance from its blocker (contact hardening).
+uniform sampler2D uShadowDepth;  // the same map read as depths (no comparison): blocker search
+uniform float uPenumbraPerDepth; // filter radius (texture units) per unit of map depth: 2 tan(theta)
+uniform float uSearchRadius;     // the largest filter radius, texture units
+uniform float uBlockerNear;      // the map depth of the scene's nearest point to the light
 
-// Key-light visibility in [0,1]: percentage-closer filtering with 4 hardware bilinear depth
-// comparisons on a fixed square (+-r, +-r). Each tap weighs a 2x2 texel footprint, so the four
+// The hard kernel (the key light as a point; with soft shadows, where the penumbra is narrower
+// than this kernel): percentage-closer filtering with 4 hardware bilinear depth comparisons
+// on a fixed square (+-r, +-r). Each tap weighs a 2x2 texel footprint, so the four
 // cover 4x4 texels with tent-like weights: a soft, band-free penumbra about 4 texels wide.
 // No per-pixel rotation (no noise, no trigonometry per fragment); deterministic.
 // Earlier versions used 12 rotated Poisson taps: 3x the cost on llvmpipe, where every tap is
 // paid by every fragment (SIMD lanes run both sides of a branch).
-float keyVisibility(vec3 p, vec3 n) {
-#if DGV_SHADOWS == 0
-    return 1.0;
-#else
-    if (uShadowsOn == 0) return 1.0;
-    vec3 c = (uShadowFromWorld * vec4(p + n * uNormalOffset, 1.0)).xyz;
-    bool inside = c.x >= 0.0 && c.x <= 1.0 && c.y >= 0.0 && c.y <= 1.0;
-    float ref = min(c.z, 0.9999);
+float hardVisibility(vec3 c, bool inside, float ref) {
     float r = uShadowRadius;
 #if DGV_QUAD_PCF
     // At n x n supersampling a 2x2 fragment quad is one output pixel (n = 2) or a quarter of
@@ -77,6 +90,135 @@ float keyVisibility(vec3 p, vec3 n) {
               + texture(uShadowMap, vec3(c.xy + dx + dy + vec2(r, r), ref));
 #endif
     return 0.25 * sum;
+}
+
+#if DGV_SOFT_SHADOWS
+// 16 points of a Poisson disc of radius 1 (fixed: every run gives the same pixels), written
+// out as literals: a constant array indexed in a loop that llvmpipe cannot unroll is built
+// per fragment and read lane by lane, which cost more than the taps themselves.
+#define DGV_DISC_TAPS(TAP) \
+    TAP(-0.9420, -0.3991) TAP(0.9456, -0.7689) TAP(-0.0942, -0.9294) TAP(0.3450, 0.2939) \
+    TAP(-0.9159, 0.4577) TAP(-0.8154, -0.8791) TAP(-0.3828, 0.2768) TAP(0.9748, 0.7565) \
+    TAP(0.4432, -0.9751) TAP(0.5374, -0.4737) TAP(-0.2650, -0.4189) TAP(0.7920, 0.1909) \
+    TAP(-0.2419, 0.9971) TAP(-0.8141, 0.9144) TAP(0.1998, 0.7864) TAP(0.1438, -0.1410)
+
+// One gather's blockers: (sum of the blocking depths, their count) among its 2x2 depths.
+vec2 gatherBlockers(vec2 at, float limit) {
+    vec4 d = textureGather(uShadowDepth, at);
+    vec4 isBlocker = vec4(lessThan(d, vec4(limit)));
+    return vec2(dot(d, isBlocker), dot(isBlocker, vec4(1.0)));
+}
+
+// The blocker search: (sum of the blocking depths, their count) among 64 depths, 16 gathers on
+// a 4x4 grid at (+-s/3, +-s) over the largest penumbra this receiver can have, radius s (its
+// depth below the scene's nearest point to the light). The grid reaches as far as the filter
+// can (radius s at most), so where the search finds no blocker the filter would find none
+// either and the shadow stays continuous there; with gathers reaching only half way the
+// filter's disc showed as lobes round a far blocker's shadow. With DGV_QUAD_PCF each fragment
+// of a 2x2 quad takes the quarter of the grid on its own side and the quad sums the four (fine
+// derivatives, as the hard kernel does): 4 gathers a fragment instead of 16. The ground at
+// output size shares its search the same way (DGV_QUAD_SEARCH without DGV_QUAD_PCF): the mean
+// blocker depth over 2x2 pixels is as good as over one, where a shared filter would show as
+// 2x2 blocks. Uniform control flow with DGV_QUAD_SEARCH.
+vec2 blockerSearch(vec3 c, float ref) {
+    float s = clamp(uPenumbraPerDepth * (ref - uBlockerNear), uShadowRadius, uSearchRadius);
+    float limit = ref - 2.0 * uShadowRadius;
+#if DGV_QUAD_SEARCH
+    vec2 parity = vec2(ivec2(gl_FragCoord.xy) & 1) * 2.0 - 1.0;
+    vec2 side = parity * (0.5 * vec2(dFdxFine(parity.x), dFdyFine(parity.y))) * s;
+    vec2 v = gatherBlockers(c.xy + side * vec2(1.0 / 3.0, 1.0 / 3.0), limit)
+           + gatherBlockers(c.xy + side * vec2(1.0, 1.0 / 3.0), limit)
+           + gatherBlockers(c.xy + side * vec2(1.0 / 3.0, 1.0), limit)
+           + gatherBlockers(c.xy + side, limit);
+    vec2 rowPair = 2.0 * v - sign(side.x) * dFdxFine(v);
+    return 2.0 * rowPair - sign(side.y) * dFdyFine(rowPair);
+#else
+    vec2 v = vec2(0.0);
+    for (int k = 0; k < 16; ++k) {
+        vec2 o = (vec2(float(k & 3), float(k >> 2)) * (2.0 / 3.0) - 1.0) * s;
+        v += gatherBlockers(c.xy + o, limit);
+    }
+    return v;
+#endif
+}
+
+// Percentage-closer soft shadows. The blocker search's mean blocking depth gives the filter
+// radius, its distance to the receiver times 2 tan(theta); the filter is the disc's 16 bilinear
+// comparisons at that radius. Returns (soft visibility, its weight against the hard kernel):
+// weight 0 where the search finds no blocker (lit, or a blocker the sparse search missed,
+// which the hard kernel sees), where every depth it read blocks (the umbra, where the hard
+// kernel gives the same 0), or where the penumbra is no wider than the hard kernel's; rising
+// to 1 by twice that width.
+// Every fragment pays for the filter: llvmpipe runs both sides of a branch and the first trip
+// of a loop for its whole block of fragments, so skipping the filter where it is not needed
+// saves nothing there. Hence the filter is cheap everywhere instead: with DGV_QUAD_PCF each
+// fragment of a 2x2 quad takes a quarter of the disc (4 taps) and the quad sums the four with
+// fine derivatives, 16 taps an output pixel at 2x2 supersampling for the price of 4; the disc
+// turns with the output pixel's parity (0, 22.5, 45, 67.5 degrees), so neighbouring pixels
+// sample different points and a wide penumbra shows no contours. Without it (the ground at
+// output size, 1x supersampling) a fragment takes the 16 taps at all four turns: turned by its
+// parity the ground showed the 2x2 pattern as grain, unturned the taps as contour lines.
+vec2 softVisibility(vec3 c, float ref, vec2 blocker) {
+    float blockerSum = blocker.x, blockers = blocker.y;
+    float radius = min(uPenumbraPerDepth * (ref - blockerSum / max(blockers, 1.0)), uSearchRadius);
+    float weight = smoothstep(1.5, 3.0, radius / uShadowRadius);
+    bool penumbra = blockers > 0.0 && weight > 0.0;
+    ivec2 frag = ivec2(gl_FragCoord.xy);
+#if DGV_QUAD_PCF
+    int pixel = ((frag.x >> 1) & 1) + 2 * ((frag.y >> 1) & 1);
+    vec2 cs = pixel == 0 ? vec2(1.0, 0.0) : pixel == 1 ? vec2(0.9238795, 0.3826834)
+            : pixel == 2 ? vec2(0.7071068, 0.7071068) : vec2(0.3826834, 0.9238795);  // cos, sin of 0, 22.5, 45, 67.5 degrees
+    mat2 rot = mat2(cs.x, cs.y, -cs.y, cs.x) * radius;
+    vec2 side = vec2(frag & 1) * 2.0 - 1.0;
+    int quarter = (frag.x & 1) + 2 * (frag.y & 1);
+    vec2 o0 = quarter == 0 ? vec2(-0.9420, -0.3991) : quarter == 1 ? vec2(0.9456, -0.7689)
+           : quarter == 2 ? vec2(-0.0942, -0.9294) : vec2(0.3450, 0.2939);
+    vec2 o1 = quarter == 0 ? vec2(-0.9159, 0.4577) : quarter == 1 ? vec2(-0.8154, -0.8791)
+           : quarter == 2 ? vec2(-0.3828, 0.2768) : vec2(0.9748, 0.7565);
+    vec2 o2 = quarter == 0 ? vec2(0.4432, -0.9751) : quarter == 1 ? vec2(0.5374, -0.4737)
+           : quarter == 2 ? vec2(-0.2650, -0.4189) : vec2(0.7920, 0.1909);
+    vec2 o3 = quarter == 0 ? vec2(-0.2419, 0.9971) : quarter == 1 ? vec2(-0.8141, 0.9144)
+           : quarter == 2 ? vec2(0.1998, 0.7864) : vec2(0.1438, -0.1410);
+    float v = texture(uShadowMap, vec3(c.xy + rot * o0, ref)) + texture(uShadowMap, vec3(c.xy + rot * o1, ref))
+            + texture(uShadowMap, vec3(c.xy + rot * o2, ref)) + texture(uShadowMap, vec3(c.xy + rot * o3, ref));
+    float rowPair = 2.0 * v - side.x * dFdxFine(v);
+    float sum = 2.0 * rowPair - side.y * dFdyFine(rowPair);
+#else
+    float sum = 0.0;
+    mat2 rot = mat2(radius);
+#define DGV_TAP(x, y) sum += texture(uShadowMap, vec3(c.xy + rot * vec2(x, y), ref));
+    DGV_DISC_TAPS(DGV_TAP)
+    rot = mat2(0.7071068, 0.7071068, -0.7071068, 0.7071068) * radius;
+    DGV_DISC_TAPS(DGV_TAP)
+    rot = mat2(0.9238795, 0.3826834, -0.3826834, 0.9238795) * radius;
+    DGV_DISC_TAPS(DGV_TAP)
+    rot = mat2(0.3826834, 0.9238795, -0.9238795, 0.3826834) * radius;
+    DGV_DISC_TAPS(DGV_TAP)
+#undef DGV_TAP
+    sum *= 0.25;
+#endif
+    return penumbra ? vec2(sum / 16.0, weight) : vec2(1.0, 0.0);
+}
+#endif
+
+// Key-light visibility in [0,1] (1: lit).
+float keyVisibility(vec3 p, vec3 n) {
+#if DGV_SHADOWS == 0
+    return 1.0;
+#else
+    if (uShadowsOn == 0) return 1.0;
+    vec3 c = (uShadowFromWorld * vec4(p + n * uNormalOffset, 1.0)).xyz;
+    bool inside = c.x >= 0.0 && c.x <= 1.0 && c.y >= 0.0 && c.y <= 1.0;
+    float ref = min(c.z, 0.9999);
+    float hard = hardVisibility(c, inside, ref);  // derivatives inside: uniform control flow
+#if DGV_SOFT_SHADOWS
+    if (uPenumbraPerDepth > 0.0) {
+        vec2 blocker = blockerSearch(c, ref);        // uniform control flow (derivatives)
+        vec2 soft = softVisibility(c, ref, blocker);  // likewise
+        if (inside) return mix(hard, soft.x, soft.y);
+    }
+#endif
+    return hard;
 #endif
 }
 

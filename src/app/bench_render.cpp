@@ -81,15 +81,22 @@ void render(std::ostream& out, const BenchOptions& options) {
     };
 
     // 1. Stage by stage, each pass finished before the next (RenderSettings::profilePasses).
-    std::vector<double> prepare, draw, shadow, scenePass, resolve, readback, encode, total;
+    // Each frame is also drawn with hard shadows (shadowSoftness 0) right after, so the soft
+    // shadows' cost is an A/B pair from the same minute.
+    std::vector<double> prepare, draw, shadow, scenePass, scenePassHard, resolve, readback, encode, total;
     std::size_t pngBytes = 0;
     std::string glName;
     {
         RenderSettings profiled = settings;
         profiled.profilePasses = true;
         Renderer renderer(profiled);
+        RenderSettings profiledHard = profiled;
+        profiledHard.shadowSoftness = 0;
+        Renderer hardRenderer(profiledHard);
         glName = renderer.glRenderer();
         for (int f = 0; f <= repeats; ++f) {  // frame 0 (uploads, shader JIT) is not timed
+            hardRenderer.render(scene, camera(f));
+            if (f > 0) scenePassHard.push_back(hardRenderer.lastTimings().sceneMs);
             const Image img = renderer.render(scene, camera(f));
             const auto t0 = Clock::now();
             pngBytes = encodePng(img, png).size();
@@ -178,7 +185,9 @@ void main() {
         << settings.supersample << " supersampled, " << scene.meshes[0].triangles.size() << " triangles\n";
     out << "render.prepare_ms_median: " << median(prepare) << " ms\n";
     out << "render.shadow_pass_ms_median: " << median(shadow) << " ms\n";
-    out << "render.scene_pass_ms_median: " << median(scenePass) << " ms\n";
+    out << "render.scene_pass_ms_median: " << median(scenePass) << " ms (soft shadows, " << settings.shadowSoftness
+        << " degrees)\n";
+    out << "render.scene_pass_hard_shadows_ms_median: " << median(scenePassHard) << " ms\n";
     out << "render.resolve_pass_ms_median: " << median(resolve) << " ms\n";
     out << "render.draw_ms_min: " << *std::min_element(draw.begin(), draw.end()) << " ms\n";
     out << "render.draw_ms_median: " << median(draw) << " ms\n";

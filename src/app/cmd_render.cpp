@@ -196,7 +196,7 @@ int runRender(const RenderOptions& options) {
             logInfo("--contact-sheet: '" + scene.name +
                     "' is a curve scene (the GLN figures), which has no contact sheet; "
                     "rendering its frames without one");
-        return renderCurveScene(scene, first, last);
+        return renderCurveScene(scene, renderSettingsOf(scene.render, backend), first, last);
     }
 
     // Build every object before anything is written: bad meshes or settings fail up front.
@@ -211,14 +211,7 @@ int runRender(const RenderOptions& options) {
     dynamics.setFirstWrittenFrame(first);
     dynamics.setReadOnly(options.farmTask);
 
-    RenderSettings rs;
-    rs.width = scene.render.width;
-    rs.height = scene.render.height;
-    rs.supersample = scene.render.supersample;
-    rs.background = scene.render.background;
-    rs.transparentBackground = scene.render.transparent;
-    rs.creaseDegrees = scene.render.creaseDegrees;
-    rs.backend = backend;
+    const RenderSettings rs = renderSettingsOf(scene.render, backend);
     Renderer renderer(rs);
     const std::string glName = renderer.glRenderer();
 

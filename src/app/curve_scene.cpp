@@ -76,20 +76,27 @@ std::vector<Vec3> curveAtRest(const CurveDesc& c) {
     return pts;
 }
 
-int renderCurveScene(const SceneDesc& scene, int first, int last) {
+RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend) {
+    RenderSettings rs;
+    rs.width = desc.width;
+    rs.height = desc.height;
+    rs.supersample = desc.supersample;
+    rs.background = desc.background;
+    rs.transparentBackground = desc.transparent;
+    rs.creaseDegrees = desc.creaseDegrees;
+    rs.shadowSoftness = desc.shadowSoftness;
+    rs.backend = backend;
+    return rs;
+}
+
+int renderCurveScene(const SceneDesc& scene, const RenderSettings& settings, int first, int last) {
     // Everything that can fail on input fails before anything is written.
     std::vector<std::vector<Vec3>> rest;
     for (const CurveDesc& c : scene.curves) rest.push_back(curveAtRest(c));
     if (scene.camera.type != CameraType::LookAt)
         throw InputError(scene.path, "camera.type", "a scene with curves needs a look_at camera");
 
-    RenderSettings rs;
-    rs.width = scene.render.width;
-    rs.height = scene.render.height;
-    rs.supersample = scene.render.supersample;
-    rs.background = scene.render.background;
-    rs.transparentBackground = scene.render.transparent;
-    Renderer renderer(rs);
+    Renderer renderer(settings);
     const std::string glName = renderer.glRenderer();
     Camera cam;
     cam.eye = scene.camera.eye;

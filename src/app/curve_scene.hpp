@@ -7,6 +7,7 @@
 /// vs frame) and gln_vs_distance.png (GLN vs distance).
 
 #include "base/types.hpp"
+#include "render/renderer.hpp"
 #include "sim/scene.hpp"
 
 #include <vector>
@@ -17,7 +18,11 @@ namespace dgv::app {
 /// bad curve file.
 std::vector<Vec3> curveAtRest(const CurveDesc& curve);
 
-/// Renders frames [first, last] of a curve scene and writes gln.csv and the plots. Exit code.
-int renderCurveScene(const SceneDesc& scene, int first, int last);
+/// Renders frames [first, last] of a curve scene with `settings` (renderSettingsOf) and writes
+/// gln.csv and the plots. Exit code.
+int renderCurveScene(const SceneDesc& scene, const RenderSettings& settings, int first, int last);
+
+/// The renderer's settings from a scene's `render` block.
+RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend);
 
 }  // namespace dgv::app

@@ -315,6 +315,8 @@ TEST_CASE("renderer: crease normals keep a box's faces flat, 180 degrees rounds 
     RenderSettings bad;
     bad.creaseDegrees = 200;
     CHECK(bad.validate().size() == 1);
+    bad.shadowSoftness = -1;
+    CHECK(bad.validate().size() == 2);
 }
 
 TEST_CASE("renderer: EGL and OSMesa give bit-identical images", "[render][egl]") {

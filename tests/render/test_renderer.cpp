@@ -308,6 +308,81 @@ TEST_CASE("renderer: the ground shows the key light's shadow", "[render]") {
     CHECK(darker / probes > 3000);
 }
 
+TEST_CASE("renderer: soft shadows widen with the distance from their blocker, hard shadows do not", "[render]") {
+    // RenderSettings::shadowSoftness: the key light is a disc of angular radius theta, so a
+    // blocker at distance d along the light casts a penumbra 2 d tan(theta) wide (perpendicular
+    // to the light), from fully lit to umbra. A ball of radius R held D above a slab, the
+    // camera straight above the ball's shadow (the ball no more than in a corner): the band of the
+    // slab where the visibility is between 0.1 and 0.9 is a ring around the shadow's ellipse.
+    // Across a straight edge a uniform disc's covered share passes 0.1 and 0.9 at +-0.687 of
+    // its radius, so the band is 2 * 0.687 * d tan(theta) wide, d = D / cos(i) (i the light's
+    // angle from the vertical), and stretched by 1 / cos(i) along the light's ground direction
+    // with the ellipse: its area is 4 pi R * 0.687 d tan(theta) / cos(i). With softness 0 the
+    // penumbra is the hard kernel's few texels at any height.
+    test::FpTrapsOff guard;
+    const Real R = 0.5;
+    auto scene = [&](Real D) {
+        FrameScene s;
+        s.meshes.push_back(test::box(Vec3(0, -0.1, 0), Vec3(10.0, 0.2, 10.0), 4));
+        s.meshes.back().colour = Vec3(0.7, 0.7, 0.7);
+        s.meshes.push_back(test::uvSphere(Vec3(0, D, 0), R, 48, 96));
+        s.meshes.back().colour = Vec3(0.7, 0.3, 0.2);
+        s.meshes.push_back(test::uvSphere(Vec3(4.9, 5.0, 4.9), 0.01, 4, 8));  // fixes the bounds
+        s.groundPlane = false;
+        return s;
+    };
+    // The rig's key light for a camera looking straight down (renderer.cpp: backH = +Z,
+    // rightH = +X): towards (-0.55, 1, 0.65).
+    const Vec3 key = Vec3(-0.55, 1.0, 0.65).normalized();
+    const Real cosI = key.y();
+    const int size = 256;
+    const Real height = 20, halfView = 1.15;  // the view spans 2.3 m of the slab
+    const Real pixel = 2 * halfView / size;
+    struct Band {
+        double pixels = 0, lit = 0, umbra = 0;
+    };
+    auto band = [&](Real softness, Real D) {
+        RenderSettings s;
+        s.width = s.height = size;
+        s.shadowSoftness = softness;
+        Renderer renderer(s);
+        const Vec3 shadowCentre = Vec3(0, D, 0) - key * (D / key.y());
+        Camera cam;
+        cam.eye = shadowCentre + Vec3(0, height, 0);
+        cam.target = shadowCentre;
+        cam.up = -Vec3::UnitZ();
+        cam.fovYDegrees = 2 * std::atan(halfView / height) * 180 / 3.14159265358979323846;
+        const Image img = renderer.render(scene(D), cam);
+        auto linear = [&](int x, int y) { return decodeSrgb(img.pixel(x, y)[1] / 65535.0); };
+        Band b;
+        b.umbra = linear(size / 2, size / 2);
+        b.lit = linear(2, 2);  // a corner far from the shadow
+        for (int y = 0; y < size; ++y)
+            for (int x = 0; x < size; ++x) {
+                const std::uint16_t* c = img.pixel(x, y);
+                if (std::abs(int(c[0]) - int(c[1])) > 2000) continue;  // the ball in a corner, not the slab
+                const double v = (linear(x, y) - b.umbra) / (b.lit - b.umbra);
+                b.pixels += v > 0.1 && v < 0.9;
+            }
+        return b;
+    };
+    const Real theta = 3 * 3.14159265358979323846 / 180;
+    for (Real D : {2.0, 4.0}) {
+        const Band soft = band(3, D);
+        const Real d = D / cosI;
+        const double expected = 4 * 3.14159265358979323846 * R * 0.687 * d * std::tan(theta) / cosI / (pixel * pixel);
+        INFO("D " << D << ": lit " << soft.lit << ", umbra " << soft.umbra << ", band " << soft.pixels
+                  << " pixels, expected " << expected);
+        CHECK(soft.umbra < 0.5 * soft.lit);    // the shadow's centre is umbra
+        CHECK(soft.pixels > 0.85 * expected);  // measured 1.02 (D 2) and 0.91 (D 4) of it
+        CHECK(soft.pixels < 1.15 * expected);
+    }
+    const Band hard2 = band(0, 2), hard4 = band(0, 4);
+    INFO("hard: " << hard2.pixels << " and " << hard4.pixels << " pixels");
+    CHECK(std::abs(hard4.pixels - hard2.pixels) < 0.15 * hard2.pixels);
+    CHECK(hard2.pixels < 0.3 * band(3, 2).pixels);  // measured 0.11
+}
+
 TEST_CASE("renderer: invalid settings and missing shaders are reported", "[render]") {
     test::FpTrapsOff guard;
     RenderSettings bad;
