@@ -4,6 +4,7 @@
 
 #include "base/check.hpp"
 #include "base/parallel.hpp"
+#include "collide/box_tree.hpp"
 #include "collide/gln_farfield.hpp"
 
 #include <algorithm>
@@ -47,73 +48,6 @@ Box3 boxOf(const ClosedCurve& c) {
     for (const Vec3& p : c) b.extend(p);
     return b;
 }
-
-bool overlap(const Box3& a, const Box3& b) {
-    return !((a.max.array() < b.min.array()).any() || (b.max.array() < a.min.array()).any());
-}
-
-/// A bounding-volume hierarchy over boxes (median splits along the longest axis): which boxes
-/// overlap a query box. Deterministic (the query's result is sorted).
-class BoxTree {
-public:
-    explicit BoxTree(std::vector<Box3> boxes) : mBoxes(std::move(boxes)) {
-        mOrder.resize(mBoxes.size());
-        for (std::size_t i = 0; i < mOrder.size(); ++i) mOrder[i] = static_cast<Index>(i);
-        if (!mBoxes.empty()) build(0, static_cast<Index>(mOrder.size()));
-    }
-    void query(const Box3& q, std::vector<Index>& out) const {
-        out.clear();
-        if (mNodes.empty()) return;
-        Index stack[64];
-        int top = 0;
-        stack[top++] = 0;
-        while (top > 0) {
-            const Node& nd = mNodes[at(stack[--top])];
-            if (!overlap(nd.box, q)) continue;
-            if (nd.left < 0) {
-                for (Index i = nd.begin; i < nd.end; ++i)
-                    if (overlap(mBoxes[at(mOrder[at(i)])], q)) out.push_back(mOrder[at(i)]);
-            } else {
-                stack[top++] = nd.left;
-                stack[top++] = nd.right;
-            }
-        }
-        std::sort(out.begin(), out.end());
-    }
-
-private:
-    struct Node {
-        Box3 box;
-        Index left = -1, right = -1, begin = 0, end = 0;
-    };
-    Index build(Index begin, Index end) {
-        const Index id = static_cast<Index>(mNodes.size());
-        mNodes.push_back(Node{});
-        Box3 box;
-        for (Index i = begin; i < end; ++i) box.extend(mBoxes[at(mOrder[at(i)])]);
-        mNodes[at(id)].box = box;
-        mNodes[at(id)].begin = begin;
-        mNodes[at(id)].end = end;
-        if (end - begin <= 4) return id;
-        int axis = 0;
-        const Vec3 size = box.size();
-        for (int k = 1; k < 3; ++k)
-            if (size[k] > size[axis]) axis = k;
-        const Index mid = (begin + end) / 2;
-        std::nth_element(mOrder.begin() + begin, mOrder.begin() + mid, mOrder.begin() + end, [&](Index a, Index b) {
-            const Real ca = mBoxes[at(a)].centre()[axis], cb = mBoxes[at(b)].centre()[axis];
-            return ca < cb || (ca == cb && a < b);
-        });
-        const Index l = build(begin, mid);
-        const Index r = build(mid, end);
-        mNodes[at(id)].left = l;
-        mNodes[at(id)].right = r;
-        return id;
-    }
-    std::vector<Box3> mBoxes;
-    std::vector<Index> mOrder;
-    std::vector<Node> mNodes;
-};
 
 }  // namespace
 
@@ -351,7 +285,7 @@ ContactSetReport GlnNetwork::contactSet(const std::vector<Vec3>& x, const Signed
         boxes[i] = boxOf(loops[i]);
         all.extend(boxes[i]);
     }
-    const BoxTree tree(std::move(boxes));
+    const BoxTree tree(boxes);
 
     struct RingResult {
         unsigned char linked = 0;
@@ -361,9 +295,9 @@ ContactSetReport GlnNetwork::contactSet(const std::vector<Vec3>& x, const Signed
     // linked pair (the rules only need "some loop links it").
     auto evaluate = [&](const ClosedCurve& ring, RingResult& res) {
         const Box3 b = boxOf(ring);
-        if (!overlap(b, all)) return;
+        if (!boxesOverlap(b, all)) return;
         std::vector<Index> cand;
-        tree.query(b, cand);
+        tree.overlapping(b, cand);
         for (Index j : cand) {
             bool und = false;
             ++res.pairs;

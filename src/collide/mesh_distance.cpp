@@ -140,46 +140,14 @@ MeshDistance::MeshDistance(const TriangleMesh& mesh) {
         tr.edgeNormal = edgeNormal[f];
         centroids[f] = (tr.v[0] + tr.v[1] + tr.v[2]) / 3;
     }
-    mNodes.reserve(2 * t / kLeafSize + 1);
-    std::vector<int> order(t);
-    std::iota(order.begin(), order.end(), 0);
-    build(0, static_cast<int>(t), order, centroids, tris);
+    std::vector<Box3> boxes(t);
+    for (std::size_t f = 0; f < t; ++f)
+        for (const Vec3& v : tris[f].v) boxes[f].extend(v);
+    mTree = BoxTree(boxes, centroids, kLeafSize);
     // The triangles in leaf order: a leaf's are contiguous.
+    const std::vector<int>& order = mTree.order();
     mTriangles.resize(t);
     for (std::size_t k = 0; k < t; ++k) mTriangles[k] = tris[static_cast<std::size_t>(order[k])];
-}
-
-int MeshDistance::build(int first, int count, std::vector<int>& order, const std::vector<Vec3>& centroids,
-                        const std::vector<Tri>& tris) {
-    const int id = static_cast<int>(mNodes.size());
-    mNodes.emplace_back();
-    Box3 box, centres;
-    for (int k = first; k < first + count; ++k) {
-        const auto f = static_cast<std::size_t>(order[static_cast<std::size_t>(k)]);
-        for (const Vec3& v : tris[f].v) box.extend(v);
-        centres.extend(centroids[f]);
-    }
-    mNodes[static_cast<std::size_t>(id)].box = box;
-    if (count <= kLeafSize) {
-        mNodes[static_cast<std::size_t>(id)].first = first;
-        mNodes[static_cast<std::size_t>(id)].count = count;
-        return id;
-    }
-    // Median split along the centroids' longest axis (ties broken by the triangle's index, so
-    // the tree is the same every run).
-    int axis = 0;
-    centres.size().maxCoeff(&axis);
-    const int half = count / 2;
-    const auto begin = order.begin() + first;
-    std::nth_element(begin, begin + half, begin + count, [&](int a, int b) {
-        const Real ca = centroids[static_cast<std::size_t>(a)][axis], cb = centroids[static_cast<std::size_t>(b)][axis];
-        return ca != cb ? ca < cb : a < b;
-    });
-    const int left = build(first, half, order, centroids, tris);
-    const int right = build(first + half, count - half, order, centroids, tris);
-    mNodes[static_cast<std::size_t>(id)].left = left;
-    mNodes[static_cast<std::size_t>(id)].right = right;
-    return id;
 }
 
 Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient, Real beyond) const {
@@ -199,11 +167,12 @@ Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient, Real beyond) co
     // nearer than the best triangle so far.
     std::array<std::pair<int, Real>, 64> stack;
     int top = 0;
-    stack[static_cast<std::size_t>(top++)] = {0, boxDistance2(mNodes[0].box, x)};
+    const std::vector<BoxTree::Node>& nodes = mTree.nodes();
+    stack[static_cast<std::size_t>(top++)] = {0, boxDistance2(nodes[0].box, x)};
     while (top > 0) {
         const auto [id, d2] = stack[static_cast<std::size_t>(--top)];
         if (d2 >= best) continue;
-        const Node& node = mNodes[static_cast<std::size_t>(id)];
+        const BoxTree::Node& node = nodes[static_cast<std::size_t>(id)];
         if (node.left < 0) {
             for (int f = node.first; f < node.first + node.count; ++f) {
                 const Tri& tr = mTriangles[static_cast<std::size_t>(f)];
@@ -217,8 +186,8 @@ Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient, Real beyond) co
             }
             continue;
         }
-        const Real dl = boxDistance2(mNodes[static_cast<std::size_t>(node.left)].box, x);
-        const Real dr = boxDistance2(mNodes[static_cast<std::size_t>(node.right)].box, x);
+        const Real dl = boxDistance2(nodes[static_cast<std::size_t>(node.left)].box, x);
+        const Real dr = boxDistance2(nodes[static_cast<std::size_t>(node.right)].box, x);
         // The nearer child goes on top, so it is visited first. The depth is about log2(T / 4)
         // and each level leaves at most one node behind: 64 entries cover any mesh.
         if (dl < dr) {

@@ -15,6 +15,7 @@
 /// may run on any number of threads; the result does not depend on the thread count.
 
 #include "base/types.hpp"
+#include "collide/box_tree.hpp"
 #include "geom/triangle_mesh.hpp"
 
 #include <array>
@@ -44,23 +45,14 @@ public:
                         Real beyond = std::numeric_limits<Real>::infinity()) const;
 
 private:
-    struct Node {
-        Box3 box;
-        int first = 0, count = 0;   ///< a leaf's triangles [first, first + count) of mOrder
-        int left = -1, right = -1;  ///< children; -1 for a leaf
-    };
     struct Tri {
         std::array<Vec3, 3> v;
         Vec3 faceNormal;                 ///< unit (zero for a degenerate triangle)
         std::array<Vec3, 3> edgeNormal;  ///< edge k runs from v[k] to v[(k+1)%3]
         std::array<Vec3, 3> vertexNormal;
     };
-    /// Builds the node over order[first, first + count) and its subtree; returns its index.
-    int build(int first, int count, std::vector<int>& order, const std::vector<Vec3>& centroids,
-              const std::vector<Tri>& tris);
-
     std::vector<Tri> mTriangles;  ///< in the hierarchy's leaf order
-    std::vector<Node> mNodes;     ///< mNodes[0] is the root
+    BoxTree mTree;                ///< over the triangles (centroid splits, leaves of 4)
     Box3 mBounds;
 };
 
