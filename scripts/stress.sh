@@ -18,8 +18,11 @@
 # has max_cell_volume_error <= 1e-4, |total_volume_drift| <= 1e-6, inverted_cells = 0 and (if
 # the column exists) torn_edges = 0, all finite. (dgv itself refuses to write a frame whose
 # surface tears or folds over on more than 2 % of its triangles; flipped_triangles below
-# that, specks, are counted in summary.tsv's last column.) One line per scene, then a count per
-# group (jelly/putty, goo) and last the line 'stress: N passed, M failed'. Exit 0 iff all passed.
+# that, specks, are counted in summary.tsv's max_flipped column.) One line per scene (a failure
+# with its kind: dgv's fault kind, lattice_folded, twist_too_far, cells_inverted, flex_inverted,
+# non_finite or surface_torn, else volume_goals, rejected, timeout or other), then a count per
+# group (jelly/putty, goo), the failures by kind, and last the line 'stress: N passed, M
+# failed'. Exit 0 iff all passed.
 set -u
 export LC_ALL=C
 
@@ -33,7 +36,7 @@ BIG=0
 KEEP=0
 PATTERNS=()
 
-usage() { sed -n '2,22p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,25p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 die() { echo "stress: $*" >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
@@ -172,7 +175,22 @@ run_one() {
     else verdict=$(judge /dev/null "$rc" "$last" "$log"); fi
     local group=jelly/putty
     case $name in goo_*) group=goo ;; esac
-    printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$group" "$rc" "$last" "$secs" "$verdict" >"$OUT/.results/$idx.tmp"
+    # Why a failure failed, as one word to count: dgv's fault kind (its error line reads
+    # 'dynamics [kind]: ...'), else what the judge or the runner saw.
+    local kind=-
+    case $verdict in
+        FAIL*)
+            kind=$(grep -E '^dgv: error: dynamics \[' "$log" | tail -n1 | sed -E 's/^dgv: error: dynamics \[([a-z_]+)\].*/\1/')
+            if [ -z "$kind" ]; then
+                case $rc in
+                    0) kind=volume_goals ;;
+                    2) kind=rejected ;;
+                    124|137) kind=timeout ;;
+                    *) kind=other ;;
+                esac
+            fi ;;
+    esac
+    printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$group" "$rc" "$last" "$secs" "$verdict" "$kind" >"$OUT/.results/$idx.tmp"
     mv "$OUT/.results/$idx.tmp" "$OUT/.results/$idx"
 }
 
@@ -181,15 +199,15 @@ printf 'stress: %d scenes, %d at a time, %s\n' ${#files[@]} "$JOBS" "$DGV"
 
 printed=0
 print_ready() {
-    local name group rc last secs result frames ce dr ff reason folds
+    local name group rc last secs result frames ce dr ff reason folds kind
     while [ $printed -lt ${#files[@]} ] && [ -f "$OUT/.results/$printed" ]; do
-        IFS=$'\t' read -r name group rc last secs result frames ce dr ff reason folds <"$OUT/.results/$printed"
+        IFS=$'\t' read -r name group rc last secs result frames ce dr ff reason folds kind <"$OUT/.results/$printed"
         if [ "$result" = PASS ] && [ "$reason" != - ]; then
             printf 'PASS %s: %s (%s s)\n' "$name" "$reason" "$secs"
         elif [ "$result" = PASS ]; then
             printf 'PASS %s (%d frames, max cell err %s, max drift %s, folded specks %s, %s s)\n' "$name" "$frames" "$ce" "$dr" "$folds" "$secs"
         else
-            printf 'FAIL %s: %s (%s s)\n' "$name" "$reason" "$secs"
+            printf 'FAIL %s [%s]: %s (%s s)\n' "$name" "$kind" "$reason" "$secs"
         fi
         printed=$((printed + 1))
     done
@@ -206,18 +224,20 @@ wait
 print_ready
 
 {
-    printf 'scene\tgroup\tresult\texit\tframes\tlast_frame\tmax_cell_err\tmax_drift\tfail_frame\tseconds\treason\tmax_flipped\n'
+    printf 'scene\tgroup\tresult\texit\tframes\tlast_frame\tmax_cell_err\tmax_drift\tfail_frame\tseconds\treason\tmax_flipped\tfault_kind\n'
     for i in "${!files[@]}"; do
-        IFS=$'\t' read -r name group rc last secs result frames ce dr ff reason folds <"$OUT/.results/$i"
-        printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$group" "$result" "$rc" "$frames" "$last" "$ce" "$dr" "$ff" "$secs" "$reason" "${folds:-0}"
+        IFS=$'\t' read -r name group rc last secs result frames ce dr ff reason folds kind <"$OUT/.results/$i"
+        printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$group" "$result" "$rc" "$frames" "$last" "$ce" "$dr" "$ff" "$secs" "$reason" "${folds:-0}" "${kind:--}"
     done
 } >"$OUT/summary.tsv"
 rm -rf "$OUT/.results"
 
-awk -F'\t' 'NR > 1 { n[$2 "," $3]++; if ($3 == "PASS") p++; else f++; t += $10 }
+awk -F'\t' 'NR > 1 { n[$2 "," $3]++; if ($3 == "PASS") p++; else { f++; if (!($13 in k)) order[++kinds] = $13; k[$13]++ }; t += $10 }
     END {
         for (g = 1; g <= 2; g++) { grp = g == 1 ? "jelly/putty" : "goo"
             printf "  %s: %d passed, %d failed\n", grp, n[grp ",PASS"], n[grp ",FAIL"] }
+        if (f > 0) { line = ""; for (i = 1; i <= kinds; i++) line = line (i > 1 ? ", " : "") order[i] " " k[order[i]]
+            printf "  failures by kind: %s\n", line }
         printf "  %.0f s of runs; summary in '"$OUT"'/summary.tsv\n", t
         printf "stress: %d passed, %d failed\n", p, f
         exit (f > 0) }' "$OUT/summary.tsv"

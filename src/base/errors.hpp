@@ -39,12 +39,54 @@ public:
     using std::runtime_error::runtime_error;
 };
 
+/// What went wrong numerically in a dynamics step, so that a caller can branch on it (the frame
+/// loop, the stress suite's tally) instead of parsing the message.
+enum class FaultKind {
+    None,
+    FlexInverted,   ///< body and flex: the affine part turned over (det A <= 0)
+    LatticeFolded,  ///< twist: the connection blew up (|Γ + δΓ| beyond 100 per lattice step)
+    TwistTooFar,    ///< reconstruction: the twist moved a point over 2 lattice steps in one step
+    CellsInverted,  ///< the volume projection left cells with non-positive volume
+    NonFinite,      ///< a position became NaN or infinite
+    SurfaceTorn,    ///< the rendered surface folds over or tears (docs/math.md, "Never a torn frame")
+    Unknown,
+};
+
+/// The kind's name in messages and reports: "lattice_folded", ...; "none" for None.
+inline const char* faultKindName(FaultKind kind) {
+    switch (kind) {
+        case FaultKind::None:
+            return "none";
+        case FaultKind::FlexInverted:
+            return "flex_inverted";
+        case FaultKind::LatticeFolded:
+            return "lattice_folded";
+        case FaultKind::TwistTooFar:
+            return "twist_too_far";
+        case FaultKind::CellsInverted:
+            return "cells_inverted";
+        case FaultKind::NonFinite:
+            return "non_finite";
+        case FaultKind::SurfaceTorn:
+            return "surface_torn";
+        case FaultKind::Unknown:
+            break;
+    }
+    return "unknown";
+}
+
 /// Numerical trouble in the dynamics that the run cannot step past (the lattice folds, a position
 /// becomes non-finite, the rendered surface tears): a RuntimeError (exit 1) that the frame loop
-/// can tell from I/O failures, and retry (sim/simulation, Simulation::advanceTo).
+/// can tell from I/O failures, and retry (sim/simulation, Simulation::advanceTo). kind() says
+/// which trouble.
 class NumericalError : public RuntimeError {
 public:
-    using RuntimeError::RuntimeError;
+    explicit NumericalError(const std::string& what, FaultKind kind = FaultKind::Unknown)
+        : RuntimeError(what), mKind(kind) {}
+    FaultKind kind() const { return mKind; }
+
+private:
+    FaultKind mKind;
 };
 
 /// Exit codes of the dgv command (documented in README.md).

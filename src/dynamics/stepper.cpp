@@ -578,6 +578,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         aNew = sl3.matrix;
     } else {
         report.fault = "flex: the affine part inverted (det A <= 0); use more substeps";
+        report.faultKind = FaultKind::FlexInverted;
         aNew = mA;
         mAdot.setZero();
     }
@@ -691,6 +692,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
                           "briefer force or a stiffer material",
                           u.x(), u.y(), u.z(), std::sqrt(size2(worst)));
             report.fault = what;
+            report.faultKind = FaultKind::LatticeFolded;
             report.totalSeconds = since(tStart);
             return report;
         }
@@ -739,6 +741,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
             "boundary frame folds first): use more damping, more substeps, a briefer force or a stiffer material",
             u.x(), u.y(), u.z(), xw.x(), xw.y(), xw.z(), maxStep / h, rec.converged ? "converged" : "did not converge");
         report.fault = what;
+        report.faultKind = FaultKind::TwistTooFar;
         mDisplacement.assign(at(n), Vec3::Zero());
         mDisplacementPrev.assign(at(n), Vec3::Zero());
         report.totalSeconds = since(tStart);
@@ -1293,9 +1296,11 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     if (mSet.yieldStrain > 0) yieldRestShape();
     report.stateSeconds = since(t);
     volumeFigures(report.maxCellVolumeError, report.totalVolumeDrift, report.invertedCells);
-    if (report.invertedCells > 0 && report.fault.empty())
+    if (report.invertedCells > 0 && report.fault.empty()) {
         report.fault = std::to_string(report.invertedCells) +
                        " lattice cells inverted (the shape folded): use more damping, stiffness or substeps";
+        report.faultKind = FaultKind::CellsInverted;
+    }
     report.totalSeconds = mPredReport.totalSeconds + since(tStart);
     return report;
 }

@@ -38,6 +38,7 @@
 ///
 /// Units: world units (metres), seconds. Deterministic for any thread count.
 
+#include "base/errors.hpp"
 #include "base/types.hpp"
 #include "deform/volume.hpp"
 #include "dynamics/body_state.hpp"
@@ -240,7 +241,8 @@ struct StepReport {
     int reconstructIterations = 0;  ///< CG iterations of the displacement solve
     int volumeIterations = 0;       ///< Gauss-Newton iterations of the volume projection
     bool volumeConverged = true;
-    std::string fault;  ///< numerical trouble ("stage: what"); empty when none
+    std::string fault;                      ///< numerical trouble ("stage: what"); empty when none
+    FaultKind faultKind = FaultKind::None;  ///< which trouble; None exactly when fault is empty
     // wall-clock seconds of each stage
     double forcesSeconds = 0, bodyFlexSeconds = 0, twistSeconds = 0, reconstructSeconds = 0, collideSeconds = 0,
            volumeSeconds = 0, stateSeconds = 0, totalSeconds = 0;

@@ -626,6 +626,7 @@ FrameStats Simulation::advanceTo(int frame) {
     std::string first;  // the first attempt's fault
     for (;;) {
         std::string fault;
+        FaultKind kind = FaultKind::Unknown;
         int failed = -1;  // the body that failed, where known
         try {
             FrameStats s = simulateFrame(frame, sub);
@@ -641,14 +642,17 @@ FrameStats Simulation::advanceTo(int frame) {
             }
             char what[240];
             std::snprintf(what, sizeof what,
-                          "dynamics: frame %d at %d substeps, object '%s': its surface folds or tears (%lld of %lld "
+                          "dynamics [surface_torn]: frame %d at %d substeps, object '%s': its surface folds or tears "
+                          "(%lld of %lld "
                           "triangles folded over, %lld edges torn)",
                           frame, sub, mScene.objects[static_cast<std::size_t>(failed)].name.c_str(),
                           static_cast<long long>(c.flippedTriangles), static_cast<long long>(c.triangles),
                           static_cast<long long>(c.tornEdges));
             fault = what + faultHint(static_cast<std::size_t>(failed));
+            kind = FaultKind::SurfaceTorn;
         } catch (const NumericalError& e) {
             fault = e.what();
+            kind = e.kind();
             failed = mFaultBody;
         }
         if (first.empty()) first = fault;
@@ -667,7 +671,8 @@ FrameStats Simulation::advanceTo(int frame) {
         }
         if (sub >= cap)
             throw NumericalError(fault + " (tried at " + std::to_string(firstSub) + " to " + std::to_string(sub) +
-                                 " substeps; nothing of frame " + std::to_string(frame) + " was written)");
+                                     " substeps; nothing of frame " + std::to_string(frame) + " was written)",
+                                 kind);
         sub = std::min(cap, 2 * sub);
     }
 }
@@ -688,15 +693,16 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             return "frame " + std::to_string(frame) + ", substep " + std::to_string(k + 1) + " of " +
                    std::to_string(sub) + ", object '" + mScene.objects[i].name + "'";
         };
-        auto fault = [&](std::size_t i, const std::string& what) {
+        auto fault = [&](std::size_t i, const std::string& what, FaultKind kind) {
             mFaultBody = static_cast<int>(i);
-            return NumericalError("dynamics: " + where(i) + ": " + what + faultHint(i));
+            return NumericalError(
+                "dynamics [" + std::string(faultKindName(kind)) + "]: " + where(i) + ": " + what + faultHint(i), kind);
         };
         // Every body's prediction first, so the bodies meet each other where they are going.
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
             if (!mBodies[i]) continue;
             const StepReport r = mBodies[i]->predict(mField, fieldFrame, dt);
-            if (!r.fault.empty()) throw fault(i, r.fault);
+            if (!r.fault.empty()) throw fault(i, r.fault, r.faultKind);
         }
         const std::vector<std::vector<Collider>> colliders = substepColliders();
         std::vector<unsigned char> staticContact(mBodies.size(), 0);
@@ -704,9 +710,10 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             if (!mBodies[i]) continue;
             const StepReport r = mBodies[i]->finish(colliders[i]);
             staticContact[i] = r.staticContact ? 1 : 0;
-            if (!r.fault.empty()) throw fault(i, r.fault);
+            if (!r.fault.empty()) throw fault(i, r.fault, r.faultKind);
             for (const Vec3& x : mBodies[i]->positions())
-                if (!allFiniteNoTrap(x)) throw fault(i, "a position became non-finite; use more substeps or damping");
+                if (!allFiniteNoTrap(x))
+                    throw fault(i, "a position became non-finite; use more substeps or damping", FaultKind::NonFinite);
             s.maxCellVolumeError = std::max(s.maxCellVolumeError, r.maxCellVolumeError);
             s.invertedCells = std::max(s.invertedCells, r.invertedCells);
             s.limitedPoints += r.limitedPoints;

@@ -74,6 +74,41 @@ TEST_CASE("e2e: an unwritable output folder gives one line, exit 1, and no parti
     CHECK(namesIn(dir.path()) == std::vector<std::string>{"small.json"});
 }
 
+TEST_CASE(
+    "e2e: a frame the dynamics cannot step is retried, then ends the run with its fault kind, and none of it is "
+    "written",
+    "[e2e][faults]") {
+    // A 0.2 m jelly ball fixed at 1 substep (max_substeps 1) lands at frame 8 and its surface
+    // folds over (measured: 220 of 3,968 triangles). The run stops there: exit 1, one line that
+    // names the kind, the frame and the substeps tried, frames 1-7 written and nothing of 8.
+    // With the default adaptive substeps the same ball lands within the goals.
+    test::TempDir dir("e2e_fault_kind");
+    auto scene = [&](const std::string& substeps) {
+        return R"({ "name": "fault", "frames": {"start": 1, "end": 10, "fps": 24})" + substeps + R"(,
+          "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.2}, "resolution": 8,
+                       "transform": {"translate": [0, 0.4, 0]}, "material": {"stiffness": 1000, "damping": 2}}],
+          "forces": [{"type": "gravity"}], "colliders": [{"type": "ground", "height": 0}] })";
+    };
+    { std::ofstream(dir.path() / "fixed.json") << scene(R"(, "max_substeps": 1)"); }
+    { std::ofstream(dir.path() / "adaptive.json") << scene(""); }
+    const Run r = runDgvIn(dir.path(), "-q render fixed.json --out out");
+    INFO("stderr: " << r.err);
+    CHECK(r.exitCode == 1);
+    CHECK(lineCount(r.err) == 1);
+    CHECK_THAT(r.err, Catch::StartsWith("dgv: error: dynamics [surface_torn]: frame 8 at 1 substeps, object 'ball': "
+                                        "its surface folds or tears"));
+    CHECK_THAT(r.err, Catch::Contains("(tried at 1 to 1 substeps; nothing of frame 8 was written)"));
+    const auto rows = readStatsCsv(dir.path() / "out" / "stats.csv");
+    REQUIRE(!rows.empty());
+    CHECK(rows.back().at("frame") == 7);
+    CHECK(fs::exists(dir.path() / "out" / "fault.0007.png"));
+    CHECK(!fs::exists(dir.path() / "out" / "fault.0008.png"));
+    const Run ok = runDgvIn(dir.path(), "-q simulate adaptive.json --out ok");
+    INFO("adaptive stderr: " << ok.err);
+    CHECK(ok.exitCode == 0);
+    CHECK(readStatsCsv(dir.path() / "ok" / "stats.csv").back().at("frame") == 10);
+}
+
 TEST_CASE("e2e: a full disk fails the frame being written and leaves no partial file", "[e2e][faults]") {
     // RLIMIT_FSIZE makes write() fail with EFBIG (SIGXFSZ ignored) like a full disk would, without
     // root or a special file system; frame 1 (~7 kB) cannot be written in 1 kB.

@@ -157,9 +157,15 @@ TEST_CASE("substeps: a jelly dropped at the default substeps lands and rests, wh
     bool folded = false;
     try {
         for (int f = 2; f <= 96; ++f) a.advanceTo(f);
-    } catch (const RuntimeError& e) {
+    } catch (const NumericalError& e) {
         folded = true;
         CHECK_THAT(e.what(), Catch::Contains("substep 1 of 1"));
+        // The step's own fault kind reaches the caller, and the message names it.
+        INFO(e.what());
+        CHECK(e.kind() != FaultKind::Unknown);
+        CHECK(e.kind() != FaultKind::None);
+        CHECK(e.kind() != FaultKind::SurfaceTorn);  // no surface here: a fault of the step itself
+        CHECK_THAT(e.what(), Catch::StartsWith("dynamics [" + std::string(faultKindName(e.kind())) + "]: frame "));
     }
     CHECK(folded);
     // Adaptive (the default): it lands and rests within the volume goals.
