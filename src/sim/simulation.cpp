@@ -695,6 +695,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
         };
         auto fault = [&](std::size_t i, const std::string& what, FaultKind kind) {
             mFaultBody = static_cast<int>(i);
+            if (kind == FaultKind::None) kind = FaultKind::Unknown;  // a fault its site did not classify
             return NumericalError(
                 "dynamics [" + std::string(faultKindName(kind)) + "]: " + where(i) + ": " + what + faultHint(i), kind);
         };
