@@ -7,7 +7,6 @@ list(APPEND DGV_TEST_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/test_vdb_stats.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_shipped_scenes.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_pin_group.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/test_substeps.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_reparametrise.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_contact_probe.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_farm.cpp)

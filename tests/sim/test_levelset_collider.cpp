@@ -11,7 +11,7 @@
 #include "sim/levelset_collider.hpp"
 #include "sim/simulation.hpp"
 #include "support/helpers.hpp"
-#include "../dynamics/lattices.hpp"
+#include "dynamics/lattices.hpp"
 
 #include <catch2/catch.hpp>
 #include <openvdb/openvdb.h>
