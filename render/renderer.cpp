@@ -990,39 +990,50 @@ struct Renderer::Impl {
         // Meshes first, so that early depth testing rejects the ground behind them. Closed,
         // consistently oriented meshes cull their back faces (never visible; half the
         // fragments); open ones are two-sided.
-        const ShaderProgram* bound = nullptr;
-        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
-            if (meshes[i].indexCount == 0) continue;
-            const DrawMesh& m = scene.meshes[i];
-            const ShaderProgram& p = m.scalar.empty() ? meshPlainProgram : meshProgram;
-            if (bound != &p) {
-                glUseProgram(p.id());
-                setMat4(p, "uClipFromWorld", clipFromWorld);
-                setLighting(p, lights);
-                setInt(p, "uFootprint", 0);
-                setVec3(p, "uEye", camera.eye);
-                bound = &p;
+        // See-through meshes (opacity < 1) are drawn by a second call, after the ground.
+        bool anySeeThrough = false;
+        auto drawMeshes = [&](bool seeThrough) {
+            const ShaderProgram* bound = nullptr;
+            for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+                if (meshes[i].indexCount == 0) continue;
+                const DrawMesh& m = scene.meshes[i];
+                const Real opacity = std::clamp(m.opacity, 0.0, 1.0);
+                if ((opacity < 1) != seeThrough) {
+                    anySeeThrough = anySeeThrough || opacity < 1;
+                    continue;
+                }
+                const ShaderProgram& p = m.scalar.empty() ? meshPlainProgram : meshProgram;
+                if (bound != &p) {
+                    glUseProgram(p.id());
+                    setMat4(p, "uClipFromWorld", clipFromWorld);
+                    setLighting(p, lights);
+                    setInt(p, "uFootprint", 0);
+                    setVec3(p, "uEye", camera.eye);
+                    bound = &p;
+                }
+                setVec3(p, "uAlbedo", m.colour.cwiseMax(0.0).cwiseMin(1.0));
+                setFloat(p, "uOpacity", opacity);
+                if (!m.scalar.empty()) {
+                    setVec3(p, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
+                    setVec3(p, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));
+                    setFloat(p, "uRampMin", m.ramp.min);
+                    setFloat(p, "uRampGlow", std::clamp(m.ramp.glow, 0.0, 1.0));
+                    const Real span = m.ramp.max - m.ramp.min;
+                    setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
+                }
+                if (meshes[i].closed)
+                    glEnable(GL_CULL_FACE);
+                else
+                    glDisable(GL_CULL_FACE);
+                glCullFace(meshes[i].inverted ? GL_FRONT : GL_BACK);
+                glBindVertexArray(meshes[i].vao);
+                glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
             }
-            setVec3(p, "uAlbedo", m.colour.cwiseMax(0.0).cwiseMin(1.0));
-            if (!m.scalar.empty()) {
-                setVec3(p, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
-                setVec3(p, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));
-                setFloat(p, "uRampMin", m.ramp.min);
-                setFloat(p, "uRampGlow", std::clamp(m.ramp.glow, 0.0, 1.0));
-                const Real span = m.ramp.max - m.ramp.min;
-                setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
-            }
-            if (meshes[i].closed)
-                glEnable(GL_CULL_FACE);
-            else
-                glDisable(GL_CULL_FACE);
-            glCullFace(meshes[i].inverted ? GL_FRONT : GL_BACK);
-            glBindVertexArray(meshes[i].vao);
-            glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
-        }
-        glBindVertexArray(0);
-        glDisable(GL_CULL_FACE);
-        glCullFace(GL_BACK);
+            glBindVertexArray(0);
+            glDisable(GL_CULL_FACE);
+            glCullFace(GL_BACK);
+        };
+        drawMeshes(false);
 
         // With the eye above the ground plane and every mesh point above it, the ground can never
         // hide a mesh, so it is shaded once per output pixel into its own target and composited
@@ -1089,6 +1100,16 @@ struct Renderer::Impl {
             glBindVertexArray(0);
         };
         if (drawGround && !groundAtOutput) drawGroundCells();
+        if (anySeeThrough) {
+            // Premultiplied "over" in scene order; depth-tested against the opaque surfaces and
+            // the ground, without writing depth (a closed mesh culls its back faces: one layer).
+            glEnable(GL_BLEND);
+            glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+            glDepthMask(GL_FALSE);
+            drawMeshes(true);
+            glDepthMask(GL_TRUE);
+            glDisable(GL_BLEND);
+        }
 
         // Overlays last: depth-tested ones pulled slightly towards the eye (lines on a surface
         // stay visible), on-top ones without the depth test. Flat colour, opaque.

@@ -42,6 +42,10 @@ struct DrawMesh {
     /// list is first seen, instead of this frame's positions. A deforming mesh passes its rest
     /// shape, so a render of frames A-B splits like a render of the whole range.
     std::vector<Vec3> creasePositions;
+    /// 1: opaque. Below 1 (down to 0) the surface is drawn see-through, after the opaque meshes
+    /// and the ground, blended over them in scene order without writing depth (an x-ray view of
+    /// what lies behind, e.g. a body's contact behind a collider); it still casts its full shadow.
+    Real opacity = 1;
 };
 
 /// A polyline overlay (curves, GLN network loops, ...): flat, unlit, `width` output pixels

@@ -20,6 +20,7 @@ uniform vec3 uRampHigh;
 uniform float uRampMin;
 uniform float uRampInvSpan;
 uniform float uRampGlow;
+uniform float uOpacity;  // 1: opaque; below, drawn blended after the opaque meshes (DrawMesh::opacity)
 
 out vec4 fragColour;
 
@@ -48,5 +49,5 @@ void main() {
                 + specular(n, v, uKeyDir, uKeyColour, 48.0) * key
                 + specular(n, v, uRimDir, uRimColour, 24.0)
                 + emitted;
-    fragColour = vec4(colour, 1.0);  // premultiplied, opaque
+    fragColour = vec4(colour * uOpacity, uOpacity);  // premultiplied
 }

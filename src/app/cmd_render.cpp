@@ -234,6 +234,7 @@ int runRender(const RenderOptions& options) {
     const std::size_t firstCollider = frameScene.meshes.size();
     for (DrawMesh& m : colliderDrawMeshes(scene)) {
         for (const Vec3& p : m.positions) bounds.extend(p);
+        m.opacity = scene.render.colliderOpacity;  // render.collider_opacity: see the contact behind
         frameScene.meshes.push_back(std::move(m));
     }
     // Contact highlighting (render.contact): the contact set R as a ramp on each moving surface.

@@ -701,6 +701,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
         d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
         d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);
+        d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);
         if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
         g.object("contact", [&](ObjectReader& c) {
             d.contactMode = c.choice("mode", "depth", {"off", "depth", "recent"});

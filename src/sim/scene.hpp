@@ -207,8 +207,9 @@ struct RenderDesc {
     bool transparent = false;
     bool ground = true;
     int bitDepth = 8;
-    Real creaseDegrees = 40;  ///< normals split along edges sharper than this (180: smooth)
-    Real shadowSoftness = 3;  ///< the key light's angular radius, degrees (0: hard shadows)
+    Real creaseDegrees = 40;   ///< normals split along edges sharper than this (180: smooth)
+    Real shadowSoftness = 3;   ///< the key light's angular radius, degrees (0: hard shadows)
+    Real colliderOpacity = 1;  ///< colliders drawn see-through below 1 (an x-ray view of the contact behind them)
     /// Contact highlighting (render.contact): the contact set R as a colour ramp on the surface.
     std::string contactMode = "off";           ///< "off", "depth" (penetration) or "recent" (time since contact)
     Real contactDepthMax = 0;                  ///< depth at which the ramp reaches `high`; 0: the object's voxel size

@@ -170,7 +170,7 @@ TEST_CASE("scene_json: keyframed camera and crease angle", "[io][scene][render]"
       "camera": {"type": "keyframed", "fov": 30, "keys": [
         {"frame": 1, "eye": [0, 1, 5], "target": [0, 0, 0]},
         {"frame": 24, "eye": [5, 1, 0], "target": [0, 0.5, 0], "fov": 20}]},
-      "render": {"crease_degrees": 60, "shadow_softness": 5}})",
+      "render": {"crease_degrees": 60, "shadow_softness": 5, "collider_opacity": 0.3}})",
                                    "k.json");
     REQUIRE(s.camera.type == CameraType::Keyframed);
     REQUIRE(s.camera.keys.size() == 2);
@@ -180,6 +180,7 @@ TEST_CASE("scene_json: keyframed camera and crease angle", "[io][scene][render]"
     CHECK(s.camera.keys[1].fovDegrees == 20);
     CHECK(s.render.creaseDegrees == 60);
     CHECK(s.render.shadowSoftness == 5);
+    CHECK(s.render.colliderOpacity == 0.3);
     CHECK(parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}]})", "d.json").render.shadowSoftness == 3);
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "camera": {"type": "keyframed"}})"),
                Catch::Contains("camera.keys: missing"));
@@ -190,6 +191,8 @@ TEST_CASE("scene_json: keyframed camera and crease angle", "[io][scene][render]"
                Catch::Contains("render.crease_degrees"));
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"shadow_softness": 20}})"),
                Catch::Contains("render.shadow_softness"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"collider_opacity": 1.5}})"),
+               Catch::Contains("render.collider_opacity"));
 }
 
 TEST_CASE("scene_json: missing, folder and unreadable scene files", "[io][scene]") {

@@ -383,6 +383,54 @@ TEST_CASE("renderer: soft shadows widen with the distance from their blocker, ha
     CHECK(hard2.pixels < 0.3 * band(3, 2).pixels);  // measured 0.11
 }
 
+TEST_CASE("renderer: a see-through mesh blends over what lies behind it by its opacity", "[render]") {
+    // DrawMesh::opacity: a box in front of a ball, drawn at opacity 1 (it hides the ball), 0
+    // (the ball as if the box were glass of no colour; the box still shades it) and 0.4. In
+    // linear light the premultiplied "over" gives exactly 0.4 of the first plus 0.6 of the
+    // second, over the ball and over the background alike, to the half-float target's precision.
+    test::FpTrapsOff guard;
+    RenderSettings settings = smallSettings();
+    Renderer renderer(settings);
+    Camera cam;
+    cam.eye = Vec3(0, 0.3, 5);
+    cam.target = Vec3::Zero();
+    auto render = [&](Real opacity) {
+        FrameScene scene;
+        scene.groundPlane = false;
+        scene.meshes.push_back(test::uvSphere(Vec3(0, 0, -1.0), 0.8, 32, 64));
+        scene.meshes.back().colour = Vec3(0.8, 0.2, 0.1);
+        scene.meshes.push_back(test::box(Vec3(0.3, 0, 1.0), Vec3(1.2, 1.2, 0.4), 3));
+        scene.meshes.back().colour = Vec3(0.5, 0.55, 0.6);
+        scene.meshes.back().opacity = opacity;
+        return renderer.render(scene, cam);
+    };
+    const Image solid = render(1), clear = render(0), part = render(0.4);
+    auto lin = [](const Image& img, int x, int y, int c) { return decodeSrgb(img.pixel(x, y)[c] / 65535.0); };
+    double worst = 0;
+    int overBall = 0, overBackground = 0, changed = 0;
+    for (int y = 0; y < settings.height; ++y)
+        for (int x = 0; x < settings.width; ++x) {
+            bool differs = false;
+            for (int c = 0; c < 3; ++c) {
+                const double expected = 0.4 * lin(solid, x, y, c) + 0.6 * lin(clear, x, y, c);
+                // Not where the output clips (the ball's highlight): clipping is not linear.
+                if (std::max({lin(solid, x, y, c), lin(clear, x, y, c), lin(part, x, y, c)}) < 0.999)
+                    worst = std::max(worst, std::abs(lin(part, x, y, c) - expected));
+                differs = differs || solid.pixel(x, y)[c] != clear.pixel(x, y)[c];
+            }
+            if (!differs) continue;
+            ++changed;
+            // Where the box covers the ball the opaque render shows grey and the clear one red.
+            const bool ballBehind = clear.pixel(x, y)[0] > clear.pixel(x, y)[2] + 8000;
+            (ballBehind ? overBall : overBackground) += 1;
+        }
+    INFO("worst " << worst << ", box pixels over the ball " << overBall << ", over the background " << overBackground);
+    CHECK(changed > 1000);  // the box covers a good part of the view
+    CHECK(overBall > 200);
+    CHECK(overBackground > 200);
+    CHECK(worst < 2e-3);
+}
+
 TEST_CASE("renderer: invalid settings and missing shaders are reported", "[render]") {
     test::FpTrapsOff guard;
     RenderSettings bad;
