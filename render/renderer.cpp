@@ -718,6 +718,20 @@ struct Renderer::Impl {
     }
 
     /// Sets the lights and shadow uniforms shared by mesh.frag and ground.frag (lighting.glsl).
+    /// Draws mesh i's triangles (its VAO stays bound). A closed mesh culls the faces turned away
+    /// from the eye, or towards the light in the shadow map (`fromLight`: only its back faces go
+    /// in, so lit surfaces never compare against themselves); one wound inside out the opposite
+    /// ones; an open mesh is two-sided.
+    void drawTriangles(std::size_t i, bool fromLight) {
+        if (meshes[i].closed)
+            glEnable(GL_CULL_FACE);
+        else
+            glDisable(GL_CULL_FACE);
+        glCullFace(meshes[i].inverted != fromLight ? GL_FRONT : GL_BACK);
+        glBindVertexArray(meshes[i].vao);
+        glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+
     struct Lights {
         Vec3 keyDir, fillDir, rimDir;
         Mat4 shadowFromWorld = Mat4::Identity();
@@ -948,16 +962,8 @@ struct Renderer::Impl {
             setMat4(shadowProgram, "uLightClipFromWorld", lightClipFromWorld);
             // Closed meshes put only their back faces (seen from the light) in the map: half
             // the triangles to set up, and lit surfaces never compare against themselves.
-            for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
-                if (meshes[i].indexCount == 0) continue;
-                if (meshes[i].closed)
-                    glEnable(GL_CULL_FACE);
-                else
-                    glDisable(GL_CULL_FACE);
-                glCullFace(meshes[i].inverted ? GL_BACK : GL_FRONT);
-                glBindVertexArray(meshes[i].vao);
-                glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
-            }
+            for (std::size_t i = 0; i < scene.meshes.size(); ++i)
+                if (meshes[i].indexCount > 0) drawTriangles(i, true);
             glBindVertexArray(0);
             glDisable(GL_CULL_FACE);
             glCullFace(GL_BACK);
@@ -1021,13 +1027,7 @@ struct Renderer::Impl {
                     const Real span = m.ramp.max - m.ramp.min;
                     setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
                 }
-                if (meshes[i].closed)
-                    glEnable(GL_CULL_FACE);
-                else
-                    glDisable(GL_CULL_FACE);
-                glCullFace(meshes[i].inverted ? GL_FRONT : GL_BACK);
-                glBindVertexArray(meshes[i].vao);
-                glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+                drawTriangles(i, false);
             }
             glBindVertexArray(0);
             glDisable(GL_CULL_FACE);
