@@ -717,7 +717,6 @@ struct Renderer::Impl {
         }
     }
 
-    /// Sets the lights and shadow uniforms shared by mesh.frag and ground.frag (lighting.glsl).
     /// Draws mesh i's triangles (its VAO stays bound). A closed mesh culls the faces turned away
     /// from the eye, or towards the light in the shadow map (`fromLight`: only its back faces go
     /// in, so lit surfaces never compare against themselves); one wound inside out the opposite
@@ -732,6 +731,7 @@ struct Renderer::Impl {
         glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
     }
 
+    /// Sets the lights and shadow uniforms shared by mesh.frag and ground.frag (lighting.glsl).
     struct Lights {
         Vec3 keyDir, fillDir, rimDir;
         Mat4 shadowFromWorld = Mat4::Identity();
@@ -997,17 +997,14 @@ struct Renderer::Impl {
         // consistently oriented meshes cull their back faces (never visible; half the
         // fragments); open ones are two-sided.
         // See-through meshes (opacity < 1) are drawn by a second call, after the ground.
-        bool anySeeThrough = false;
-        auto drawMeshes = [&](bool seeThrough) {
+        auto seeThrough = [](const DrawMesh& m) { return std::clamp(m.opacity, 0.0, 1.0) < 1; };
+        const bool anySeeThrough = std::any_of(scene.meshes.begin(), scene.meshes.end(), seeThrough);
+        auto drawMeshes = [&](bool seeThroughPass) {
             const ShaderProgram* bound = nullptr;
             for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
                 if (meshes[i].indexCount == 0) continue;
                 const DrawMesh& m = scene.meshes[i];
-                const Real opacity = std::clamp(m.opacity, 0.0, 1.0);
-                if ((opacity < 1) != seeThrough) {
-                    anySeeThrough = anySeeThrough || opacity < 1;
-                    continue;
-                }
+                if (seeThrough(m) != seeThroughPass) continue;
                 const ShaderProgram& p = m.scalar.empty() ? meshPlainProgram : meshProgram;
                 if (bound != &p) {
                     glUseProgram(p.id());
@@ -1018,7 +1015,7 @@ struct Renderer::Impl {
                     bound = &p;
                 }
                 setVec3(p, "uAlbedo", m.colour.cwiseMax(0.0).cwiseMin(1.0));
-                setFloat(p, "uOpacity", opacity);
+                setFloat(p, "uOpacity", std::clamp(m.opacity, 0.0, 1.0));
                 if (!m.scalar.empty()) {
                     setVec3(p, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
                     setVec3(p, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));

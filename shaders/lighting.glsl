@@ -96,11 +96,33 @@ float hardVisibility(vec3 c, bool inside, float ref) {
 // 16 points of a Poisson disc of radius 1 (fixed: every run gives the same pixels), written
 // out as literals: a constant array indexed in a loop that llvmpipe cannot unroll is built
 // per fragment and read lane by lane, which cost more than the taps themselves.
+#define DGV_DISC_0 vec2(-0.9420, -0.3991)
+#define DGV_DISC_1 vec2(0.9456, -0.7689)
+#define DGV_DISC_2 vec2(-0.0942, -0.9294)
+#define DGV_DISC_3 vec2(0.3450, 0.2939)
+#define DGV_DISC_4 vec2(-0.9159, 0.4577)
+#define DGV_DISC_5 vec2(-0.8154, -0.8791)
+#define DGV_DISC_6 vec2(-0.3828, 0.2768)
+#define DGV_DISC_7 vec2(0.9748, 0.7565)
+#define DGV_DISC_8 vec2(0.4432, -0.9751)
+#define DGV_DISC_9 vec2(0.5374, -0.4737)
+#define DGV_DISC_10 vec2(-0.2650, -0.4189)
+#define DGV_DISC_11 vec2(0.7920, 0.1909)
+#define DGV_DISC_12 vec2(-0.2419, 0.9971)
+#define DGV_DISC_13 vec2(-0.8141, 0.9144)
+#define DGV_DISC_14 vec2(0.1998, 0.7864)
+#define DGV_DISC_15 vec2(0.1438, -0.1410)
+// The disc's four turns, (cos, sin) of 0, 22.5, 45 and 67.5 degrees, and the disc turned and scaled.
+#define DGV_TURN_0 vec2(1.0, 0.0)
+#define DGV_TURN_1 vec2(0.9238795, 0.3826834)
+#define DGV_TURN_2 vec2(0.7071068, 0.7071068)
+#define DGV_TURN_3 vec2(0.3826834, 0.9238795)
+mat2 turnedDisc(vec2 cs, float radius) { return mat2(cs.x, cs.y, -cs.y, cs.x) * radius; }
 #define DGV_DISC_TAPS(TAP) \
-    TAP(-0.9420, -0.3991) TAP(0.9456, -0.7689) TAP(-0.0942, -0.9294) TAP(0.3450, 0.2939) \
-    TAP(-0.9159, 0.4577) TAP(-0.8154, -0.8791) TAP(-0.3828, 0.2768) TAP(0.9748, 0.7565) \
-    TAP(0.4432, -0.9751) TAP(0.5374, -0.4737) TAP(-0.2650, -0.4189) TAP(0.7920, 0.1909) \
-    TAP(-0.2419, 0.9971) TAP(-0.8141, 0.9144) TAP(0.1998, 0.7864) TAP(0.1438, -0.1410)
+    TAP(DGV_DISC_0) TAP(DGV_DISC_1) TAP(DGV_DISC_2) TAP(DGV_DISC_3) \
+    TAP(DGV_DISC_4) TAP(DGV_DISC_5) TAP(DGV_DISC_6) TAP(DGV_DISC_7) \
+    TAP(DGV_DISC_8) TAP(DGV_DISC_9) TAP(DGV_DISC_10) TAP(DGV_DISC_11) \
+    TAP(DGV_DISC_12) TAP(DGV_DISC_13) TAP(DGV_DISC_14) TAP(DGV_DISC_15)
 
 // One gather's blockers: (sum of the blocking depths, their count) among its 2x2 depths.
 vec2 gatherBlockers(vec2 at, float limit) {
@@ -146,8 +168,7 @@ vec2 blockerSearch(vec3 c, float ref) {
 // radius, its distance to the receiver times 2 tan(theta); the filter is the disc's 16 bilinear
 // comparisons at that radius. Returns (soft visibility, its weight against the hard kernel):
 // weight 0 where the search finds no blocker (lit, or a blocker the sparse search missed,
-// which the hard kernel sees), where every depth it read blocks (the umbra, where the hard
-// kernel gives the same 0), or where the penumbra is no wider than the hard kernel's; rising
+// which the hard kernel sees) or where the penumbra is no wider than the hard kernel's; rising
 // to 1 by twice that width.
 // Every fragment pays for the filter: llvmpipe runs both sides of a branch and the first trip
 // of a loop for its whole block of fragments, so skipping the filter where it is not needed
@@ -166,33 +187,28 @@ vec2 softVisibility(vec3 c, float ref, vec2 blocker) {
     ivec2 frag = ivec2(gl_FragCoord.xy);
 #if DGV_QUAD_PCF
     int pixel = ((frag.x >> 1) & 1) + 2 * ((frag.y >> 1) & 1);
-    vec2 cs = pixel == 0 ? vec2(1.0, 0.0) : pixel == 1 ? vec2(0.9238795, 0.3826834)
-            : pixel == 2 ? vec2(0.7071068, 0.7071068) : vec2(0.3826834, 0.9238795);  // cos, sin of 0, 22.5, 45, 67.5 degrees
-    mat2 rot = mat2(cs.x, cs.y, -cs.y, cs.x) * radius;
+    mat2 rot = turnedDisc(pixel == 0 ? DGV_TURN_0 : pixel == 1 ? DGV_TURN_1 : pixel == 2 ? DGV_TURN_2 : DGV_TURN_3, radius);
     vec2 side = vec2(frag & 1) * 2.0 - 1.0;
-    int quarter = (frag.x & 1) + 2 * (frag.y & 1);
-    vec2 o0 = quarter == 0 ? vec2(-0.9420, -0.3991) : quarter == 1 ? vec2(0.9456, -0.7689)
-           : quarter == 2 ? vec2(-0.0942, -0.9294) : vec2(0.3450, 0.2939);
-    vec2 o1 = quarter == 0 ? vec2(-0.9159, 0.4577) : quarter == 1 ? vec2(-0.8154, -0.8791)
-           : quarter == 2 ? vec2(-0.3828, 0.2768) : vec2(0.9748, 0.7565);
-    vec2 o2 = quarter == 0 ? vec2(0.4432, -0.9751) : quarter == 1 ? vec2(0.5374, -0.4737)
-           : quarter == 2 ? vec2(-0.2650, -0.4189) : vec2(0.7920, 0.1909);
-    vec2 o3 = quarter == 0 ? vec2(-0.2419, 0.9971) : quarter == 1 ? vec2(-0.8141, 0.9144)
-           : quarter == 2 ? vec2(0.1998, 0.7864) : vec2(0.1438, -0.1410);
+    int quarter = (frag.x & 1) + 2 * (frag.y & 1);  // takes the disc's points quarter, quarter + 4, ...
+    vec2 o0 = quarter == 0 ? DGV_DISC_0 : quarter == 1 ? DGV_DISC_1 : quarter == 2 ? DGV_DISC_2 : DGV_DISC_3;
+    vec2 o1 = quarter == 0 ? DGV_DISC_4 : quarter == 1 ? DGV_DISC_5 : quarter == 2 ? DGV_DISC_6 : DGV_DISC_7;
+    vec2 o2 = quarter == 0 ? DGV_DISC_8 : quarter == 1 ? DGV_DISC_9 : quarter == 2 ? DGV_DISC_10 : DGV_DISC_11;
+    vec2 o3 = quarter == 0 ? DGV_DISC_12 : quarter == 1 ? DGV_DISC_13 : quarter == 2 ? DGV_DISC_14 : DGV_DISC_15;
     float v = texture(uShadowMap, vec3(c.xy + rot * o0, ref)) + texture(uShadowMap, vec3(c.xy + rot * o1, ref))
             + texture(uShadowMap, vec3(c.xy + rot * o2, ref)) + texture(uShadowMap, vec3(c.xy + rot * o3, ref));
     float rowPair = 2.0 * v - side.x * dFdxFine(v);
     float sum = 2.0 * rowPair - side.y * dFdyFine(rowPair);
 #else
     float sum = 0.0;
-    mat2 rot = mat2(radius);
-#define DGV_TAP(x, y) sum += texture(uShadowMap, vec3(c.xy + rot * vec2(x, y), ref));
+    mat2 rot;
+#define DGV_TAP(o) sum += texture(uShadowMap, vec3(c.xy + rot * o, ref));
+    rot = turnedDisc(DGV_TURN_0, radius);
     DGV_DISC_TAPS(DGV_TAP)
-    rot = mat2(0.7071068, 0.7071068, -0.7071068, 0.7071068) * radius;
+    rot = turnedDisc(DGV_TURN_2, radius);
     DGV_DISC_TAPS(DGV_TAP)
-    rot = mat2(0.9238795, 0.3826834, -0.3826834, 0.9238795) * radius;
+    rot = turnedDisc(DGV_TURN_1, radius);
     DGV_DISC_TAPS(DGV_TAP)
-    rot = mat2(0.3826834, 0.9238795, -0.9238795, 0.3826834) * radius;
+    rot = turnedDisc(DGV_TURN_3, radius);
     DGV_DISC_TAPS(DGV_TAP)
 #undef DGV_TAP
     sum *= 0.25;
@@ -212,11 +228,9 @@ float keyVisibility(vec3 p, vec3 n) {
     float ref = min(c.z, 0.9999);
     float hard = hardVisibility(c, inside, ref);  // derivatives inside: uniform control flow
 #if DGV_SOFT_SHADOWS
-    if (uPenumbraPerDepth > 0.0) {
-        vec2 blocker = blockerSearch(c, ref);        // uniform control flow (derivatives)
-        vec2 soft = softVisibility(c, ref, blocker);  // likewise
-        if (inside) return mix(hard, soft.x, soft.y);
-    }
+    vec2 blocker = blockerSearch(c, ref);        // uniform control flow (derivatives)
+    vec2 soft = softVisibility(c, ref, blocker);  // likewise
+    if (inside) return mix(hard, soft.x, soft.y);
 #endif
     return hard;
 #endif

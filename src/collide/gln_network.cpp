@@ -280,11 +280,7 @@ ContactSetReport GlnNetwork::contactSet(const std::vector<Vec3>& x, const Signed
     rep.colliderLoops = static_cast<Index>(loops.size());
     if (loops.empty()) return rep;
     std::vector<Box3> boxes(loops.size());
-    Box3 all;
-    for (std::size_t i = 0; i < loops.size(); ++i) {
-        boxes[i] = boxOf(loops[i]);
-        all.extend(boxes[i]);
-    }
+    for (std::size_t i = 0; i < loops.size(); ++i) boxes[i] = boxOf(loops[i]);
     const BoxTree tree(boxes);
 
     struct RingResult {
@@ -294,10 +290,8 @@ ContactSetReport GlnNetwork::contactSet(const std::vector<Vec3>& x, const Signed
     // One ring against the collider loops whose boxes overlap its own: linked at the first
     // linked pair (the rules only need "some loop links it").
     auto evaluate = [&](const ClosedCurve& ring, RingResult& res) {
-        const Box3 b = boxOf(ring);
-        if (!boxesOverlap(b, all)) return;
         std::vector<Index> cand;
-        tree.overlapping(b, cand);
+        tree.overlapping(boxOf(ring), cand);  // the root's box first: most rings stop there
         for (Index j : cand) {
             bool und = false;
             ++res.pairs;

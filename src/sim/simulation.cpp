@@ -642,10 +642,10 @@ FrameStats Simulation::advanceTo(int frame) {
             }
             char what[240];
             std::snprintf(what, sizeof what,
-                          "dynamics [surface_torn]: frame %d at %d substeps, object '%s': its surface folds or tears "
-                          "(%lld of %lld "
-                          "triangles folded over, %lld edges torn)",
-                          frame, sub, mScene.objects[static_cast<std::size_t>(failed)].name.c_str(),
+                          "dynamics [%s]: frame %d at %d substeps, object '%s': its surface folds or tears (%lld of "
+                          "%lld triangles folded over, %lld edges torn)",
+                          faultKindName(FaultKind::SurfaceTorn), frame, sub,
+                          mScene.objects[static_cast<std::size_t>(failed)].name.c_str(),
                           static_cast<long long>(c.flippedTriangles), static_cast<long long>(c.triangles),
                           static_cast<long long>(c.tornEdges));
             fault = what + faultHint(static_cast<std::size_t>(failed));
