@@ -141,16 +141,17 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
                      std::count_if(mBodies.begin(), mBodies.end(), [](const auto& b) { return b != nullptr; }) >= 2;
     mGlnDetect = scene.collision.detect == CollisionDesc::Detect::Gln && (!mColliders.empty() || mObjectContact);
     for (std::size_t i = 0; i < mBodies.size(); ++i) attachNetwork(i);
-    // Goo without pins is re-voxelised when its lattice no longer follows it (docs/math.md,
-    // "Re-parametrisation").
+    // A body without pins is re-voxelised when its lattice no longer follows it: goo when its
+    // lattice has distorted past the bound or it fails a frame, putty when it fails a frame at
+    // every substep count; a jelly keeps its lattice (docs/math.md, "Re-parametrisation").
     mLattices = lattices;
     mRemapped.resize(mBodies.size());
     mRemapRefused.resize(mBodies.size());
     mRemapAllowed.assign(mBodies.size(), 0);
     for (std::size_t i = 0; i < mBodies.size(); ++i) {
         const ObjectDesc& o = scene.objects[i];
-        mRemapAllowed[i] = mBodies[i] && o.material.reparametrise && mBodies[i]->settings().shapeStiffness == 0 &&
-                           !mBodies[i]->anyPinned();
+        mRemapAllowed[i] = mBodies[i] && o.material.reparametrise && !mBodies[i]->anyPinned() &&
+                           (mBodies[i]->settings().shapeStiffness == 0 || mBodies[i]->settings().yieldStrain > 0);
     }
     mFrame = scene.frameStart;
 }
@@ -256,11 +257,11 @@ bool Simulation::reparametriseBody(std::size_t i, int frame, const std::string& 
                   frame, mScene.objects[i].name.c_str(), why.c_str(), static_cast<long long>(b.lattice().size()),
                   static_cast<long long>(r.lattice.size()), r.dilation, 100 * r.mismatch, 100 * r.sampled);
     logInfo(line);
-    // The surface from here on: the material's own, from its volume (or, without the callbacks
-    // that make it, the old surface carried on), in the new lattice's frame.
+    // The surface from here on, in the new lattice's frame: goo's from its volume (or, without the
+    // callbacks that make it, the old surface carried on); putty keeps its imported mesh, carried on.
     TriangleMesh surface;
     if (i < mSurfaces.size() && mSurfaces[i].mesh) {
-        surface = volumeSurface(i);
+        if (b.settings().shapeStiffness == 0) surface = volumeSurface(i);
         if (surface.vertices.empty()) {
             surface.triangles = mSurfaces[i].mesh->triangles;
             deformVertices(*mSurfaces[i].embedding, b.state(), surface.vertices);
@@ -276,6 +277,7 @@ Index Simulation::reparametriseDistorted(int frame) {
     for (std::size_t i = 0; i < mBodies.size(); ++i) {
         if (!mBodies[i] || i >= mRemapAllowed.size() || !mRemapAllowed[i]) continue;
         const DeformableBody& b = *mBodies[i];
+        if (b.settings().shapeStiffness > 0) continue;  // putty: remapped only after a failed frame
         if (b.lastStepLength() == 0) continue;
         const LatticeDistortion d = latticeDistortion(b);
         if (!mRemapBound.exceeded(d)) continue;
@@ -657,15 +659,22 @@ FrameStats Simulation::advanceTo(int frame) {
         }
         if (first.empty()) first = fault;
         restoreState(frame - 1, start);
-        // Goo that fails a frame is first re-voxelised at the frame's start and the frame tried
-        // again at the same substeps: a fresh lattice and surface, whatever the bound said.
-        if (failed >= 0 && static_cast<std::size_t>(failed) < mBodies.size() &&
-            mRemapAllowed[static_cast<std::size_t>(failed)] && !remappedForRetry[static_cast<std::size_t>(failed)] &&
-            mBodies[static_cast<std::size_t>(failed)]->lastStepLength() > 0) {
-            remappedForRetry[static_cast<std::size_t>(failed)] = 1;
-            if (reparametriseBody(static_cast<std::size_t>(failed), frame, "it failed the frame")) {
+        // A body that fails a frame is re-voxelised at the frame's start and the frame tried
+        // again: a fresh lattice, whatever the bound said. Goo first, at the same substeps; putty
+        // last, once more substeps have not helped, from the first count again (a frame that more
+        // substeps carry keeps its lattice, and its shot its frames).
+        const std::size_t fb = static_cast<std::size_t>(failed);
+        if (failed >= 0 && fb < mBodies.size() && mRemapAllowed[fb] && !remappedForRetry[fb] &&
+            mBodies[fb]->lastStepLength() > 0 && (mBodies[fb]->settings().shapeStiffness == 0 || sub >= cap)) {
+            remappedForRetry[fb] = 1;
+            const bool lastResort = mBodies[fb]->settings().shapeStiffness > 0;
+            if (reparametriseBody(fb, frame,
+                                  lastResort ? "it failed the frame at " + std::to_string(firstSub) + " to " +
+                                                   std::to_string(sub) + " substeps"
+                                             : std::string("it failed the frame"))) {
                 ++remaps;
                 start = saveState();
+                if (lastResort) sub = firstSub;
                 continue;
             }
         }

@@ -203,7 +203,7 @@ private:
     };
     std::vector<Remapped> mRemapped;           ///< per object (count 0: on its own lattice)
     std::vector<const Lattice*> mLattices;     ///< per object: its own lattice
-    std::vector<unsigned char> mRemapAllowed;  ///< per object: goo without pins
+    std::vector<unsigned char> mRemapAllowed;  ///< per object: goo or putty without pins (material.reparametrise)
     std::vector<std::string> mRemapRefused;    ///< per object: the last refusal logged
     ReparametriseBound mRemapBound;
     /// Re-voxelises the bodies whose lattices passed the bound; returns how many.
