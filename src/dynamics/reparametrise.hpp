@@ -8,7 +8,9 @@
 /// distorted past a bound: the union of its deformed cells is sampled on a fresh world-aligned
 /// grid of the same spacing, the new cells are those whose centres lie inside it, and the motion
 /// carries over (centre and flex velocities exactly, the point velocities interpolated). The
-/// notes' "network fixed for all time" holds between re-parametrisations.
+/// notes' "network fixed for all time" holds between re-parametrisations. Putty's yielded rest
+/// shape (Γ_p, P) goes with it, changed into the new lattice's coordinates; a jelly's cannot yet
+/// (its rest connection so moved is not integrable and its memory winds up: docs/math.md).
 ///
 /// Volume. The new cells are the cubes the old shape covers most (27 samples a cell), as many as
 /// bring their total closest to the body's rest volume; their spacing is then scaled (by
@@ -76,7 +78,8 @@ struct Reparametrisation {
 };
 
 /// Re-voxelises `body` in its current shape (file comment). Refused (with the reason) for a body
-/// with pins or a rest shape (stiffness), for a shape no new cell fits, and past the bounds above.
+/// with pins, for a jelly (stiffness without yield), for a shape no new cell fits, and past the
+/// bounds above.
 Reparametrisation reparametrise(const DeformableBody& body);
 
 }  // namespace dgv
