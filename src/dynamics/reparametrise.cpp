@@ -123,11 +123,10 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     }
     // Putty's rest shape goes with it: its connection relative to the current shape, Γ_p − Γ, is
     // interpolated at the new points with the frames and moved into the new lattice's coordinates
-    // below. A jelly's is refused: its rest connection moved so (Γ_rest = 0 on its first lattice,
-    // its bend up to |Γ| of 0.5 and more) is not the connection of any shape to the precision the
-    // memory needs, and the memory wound up (a dented ball of 6 voxels, k = 300: Σ|δΓ|² 0.18 →
-    // 1.4 in 72 steps and a fault, where the ball that kept its lattice came round); putty's
-    // Γ_p − Γ is under its yield, and the yield takes up what the move leaves.
+    // below. A jelly's is refused: it fails a frame where it is creased at the lattice scale, and
+    // its rest connection so moved wound its memory up there (a dented ball of 6 voxels, k = 300:
+    // Σ|δΓ|² 0.18 → 1.4 in 72 steps and a fault, where the ball that kept its lattice came round;
+    // docs/math.md). Putty's Γ_p − Γ is under its yield, and the yield takes up what the move leaves.
     if (set.shapeStiffness > 0 && set.yieldStrain == 0) {
         out.refused = "it is a jelly (a remap does not yet carry a jelly's rest shape)";
         return out;

@@ -10,7 +10,7 @@
 /// carries over (centre and flex velocities exactly, the point velocities interpolated). The
 /// notes' "network fixed for all time" holds between re-parametrisations. Putty's yielded rest
 /// shape (Γ_p, P) goes with it, changed into the new lattice's coordinates; a jelly's cannot yet
-/// (its rest connection so moved is not integrable and its memory winds up: docs/math.md).
+/// (moved so at a lattice-scale crease, its rest connection winds its memory up: docs/math.md).
 ///
 /// Volume. The new cells are the cubes the old shape covers most (27 samples a cell), as many as
 /// bring their total closest to the body's rest volume; their spacing is then scaled (by
