@@ -171,8 +171,6 @@ TEST_CASE("reparametrise: the distortion of a lattice at rest and the bound", "[
     CHECK_FALSE(bound.exceeded(squashed));
 }
 
-namespace {}  // namespace
-
 // [slow] although 1.2 s in Release: 57 s under ASan + UBSan (the sanitizer run covers the remap by the goo ball).
 TEST_CASE("reparametrise: putty remapped as it lands keeps its yielded rest shape", "[dynamics][reparametrise][slow]") {
     const Lattice lat = test::sphereLattice(6, kH, Vec3(-6 * kH, 0.02, -6 * kH), Vec3(0.2, 0.1, 0.3));
