@@ -351,39 +351,70 @@ Reparametrisation reparametrise(const DeformableBody& body) {
         });
     const Index n = grid.size();
     std::vector<Vec3> vNew(at(n), Vec3::Zero());
-    // A rest shape's fields at the new points are weighted sums of the old points' (below): inside
-    // the old tetrahedra their barycentric weights, outside the mean of the corners of each of
-    // its cells' first tetrahedra (a rest shape's fields are smooth; continuing the tetrahedra's
-    // affine maps instead threw the values of sheared ones).
-    std::vector<std::array<std::pair<Index, Real>, 32>> restWeights(carriesRest ? at(n) : 0);
-    std::vector<int> restCount(carriesRest ? at(n) : 0, 0);
+    // The rest shape's connection on the new lattice (putty). With u the old lattice's coordinates
+    // and v the new one's, G = ∂u/∂v = h' F⁻¹ (F the old frame [x_1 x_2 x_3], h' the new spacing),
+    // and a connection changes coordinates as Γ'^c_ab = (G⁻¹)^c_f (Γ^f_de G^d_a G^e_b + ∂_b G^f_a).
+    // The new lattice starts in the current shape (Γ' = 0), so the rest shape's connection in v is
+    // (G⁻¹)^c_f (Γ_p − Γ)^f_de G^d_a G^e_b: what the memory asks for is what it asked for on the
+    // old lattice, in the new coordinates. Γ_p − Γ and F are taken at a new point as a weighted
+    // mean of the old points': inside the old tetrahedra their barycentric weights; outside, the
+    // corners of each of its cells' first tetrahedra alike (a rest shape's fields are smooth;
+    // continuing the tetrahedra's affine maps instead threw the values of sheared ones).
+    std::array<std::vector<Mat3>, 3> restGamma;
+    if (carriesRest)
+        for (auto& g : restGamma) g.assign(at(n), Mat3::Zero());
+    const Real hNew = grid.spacing;
+    auto restAt = [&](Index p, const std::array<Index, 32>& ids, const std::array<Real, 32>& w, int used) {
+        Mat3 frame = Mat3::Zero();
+        std::array<Mat3, 3> d{{Mat3::Zero(), Mat3::Zero(), Mat3::Zero()}};
+        for (std::size_t j = 0; j < at(used); ++j) {
+            Mat3 f;
+            f << current.tangent[0][at(ids[j])], current.tangent[1][at(ids[j])], current.tangent[2][at(ids[j])];
+            frame += w[j] * f;
+            for (std::size_t c = 0; c < 3; ++c)
+                d[c] += w[j] * (body.plasticGamma()[c][at(ids[j])] - current.christoffel[c][at(ids[j])]);
+        }
+        const Eigen::FullPivLU<Mat3> lu(frame);
+        if (used == 0 || !lu.isInvertible()) return;  // no rest shape to pull toward here
+        const Mat3 G = hNew * lu.inverse(), Gi = frame / hNew;
+        std::array<Mat3, 3> m;  // (Γ_p − Γ)^f in the new coordinates' lower indices
+        for (std::size_t f = 0; f < 3; ++f) m[f] = G.transpose() * d[f] * G;
+        for (std::size_t c = 0; c < 3; ++c) {
+            Mat3 g = Mat3::Zero();
+            for (std::size_t f = 0; f < 3; ++f) g += Gi(static_cast<Index>(c), static_cast<Index>(f)) * m[f];
+            restGamma[c][at(p)] = Real(0.5) * (g + g.transpose());
+        }
+    };
     parallelFor(n, [&](Index p) {
         const Vec3i& u = grid.coords[at(p)];
         const Sample& s = corners[gridIndex(u)];
+        std::array<Index, 32> ids{};
+        std::array<Real, 32> w{};
         if (s.inside()) {
             vNew[at(p)] = interpolate(s, v);
             if (carriesRest) {
-                for (std::size_t j = 0; j < 4; ++j) restWeights[at(p)][j] = {s.ids[j], s.w[j]};
-                restCount[at(p)] = 4;
+                for (std::size_t j = 0; j < 4; ++j) {
+                    ids[j] = s.ids[j];
+                    w[j] = s.w[j];
+                }
+                restAt(p, ids, w, 4);
             }
             return;
         }
         Vec3 total = Vec3::Zero();
-        int samples = 0, tets = 0;
+        int samples = 0, used = 0;
         for (int c = 0; c < 8; ++c) {
-            const Vec3i w = u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-            if ((w.array() < 0).any() || (w.array() >= cellDims.array()).any()) continue;
-            total += velocitySum[cellIndex(w)];
-            samples += inside[cellIndex(w)];
-            if (carriesRest && cellTet[cellIndex(w)][0] != kNoPoint)
-                for (std::size_t j = 0; j < 4; ++j)
-                    restWeights[at(p)][at(4 * tets) + j] = {cellTet[cellIndex(w)][j], 1};
-            tets += carriesRest && cellTet[cellIndex(w)][0] != kNoPoint ? 1 : 0;
+            const Vec3i q = u - Vec3i(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            if ((q.array() < 0).any() || (q.array() >= cellDims.array()).any()) continue;
+            total += velocitySum[cellIndex(q)];
+            samples += inside[cellIndex(q)];
+            if (carriesRest && cellTet[cellIndex(q)][0] != kNoPoint)
+                for (Index id : cellTet[cellIndex(q)]) ids[at(used++)] = id;
         }
         vNew[at(p)] = samples > 0 ? Vec3(total / samples) : Vec3::Zero();
-        if (carriesRest) {
-            restCount[at(p)] = 4 * tets;
-            for (int j = 0; j < 4 * tets; ++j) restWeights[at(p)][at(j)].second = Real(1) / (4 * tets);
+        if (carriesRest && used > 0) {
+            std::fill(w.begin(), w.begin() + used, Real(1) / used);
+            restAt(p, ids, w, used);
         }
     });
     // The same momentum as the old points carry over the last step.
@@ -459,39 +490,11 @@ Reparametrisation reparametrise(const DeformableBody& body) {
     s.halfStep = body.halfStep();
     s.displacement.assign(at(n), Vec3::Zero());
     s.displacementPrev.assign(at(n), Vec3::Zero());
-    // The rest shape. With u the old lattice's coordinates and v the new one's, G = ∂u/∂v =
-    // h' F⁻¹ (F the old frame [x_1 x_2 x_3], h' the new spacing) and a rest shape of connection
-    // Γ_rest in u, the rest shape's connection in v is the change of coordinates of a
-    // connection, Γ'_rest^c_ab = (G⁻¹)^c_f (Γ_rest − Γ)^f_de G^d_a G^e_b: the new lattice starts in
-    // the current shape (Γ' = 0), and what its memory asks for is what the old one's asked for,
-    // in the new coordinates. The flex's rest stretch likewise keeps the elastic part of the flex,
-    // A P⁻¹: on the new lattice A = 1, so P' = P A⁻¹ (det 1). The yield goes on from there.
+    // The rest shape (putty): its connection from above, and the flex's rest stretch keeping the
+    // elastic part of the flex, A P⁻¹: on the new lattice A = 1, so P' = P A⁻¹ (det 1). The yield
+    // goes on from there.
     if (carriesRest) {
-        const Real hNew = grid.spacing;
-        for (auto& g : s.plasticGamma) g.assign(at(n), Mat3::Zero());
-        parallelFor(n, [&](Index p) {
-            Mat3 frame = Mat3::Zero();
-            std::array<Mat3, 3> d{{Mat3::Zero(), Mat3::Zero(), Mat3::Zero()}};
-            for (int j = 0; j < restCount[at(p)]; ++j) {
-                const auto& [id, w] = restWeights[at(p)][at(j)];
-                Mat3 f;
-                f << current.tangent[0][at(id)], current.tangent[1][at(id)], current.tangent[2][at(id)];
-                frame += w * f;
-                for (std::size_t c = 0; c < 3; ++c)
-                    d[c] += w * (body.plasticGamma()[c][at(id)] - current.christoffel[c][at(id)]);
-            }
-            const Eigen::FullPivLU<Mat3> lu(frame);
-            if (restCount[at(p)] == 0 || !lu.isInvertible()) return;  // no rest shape to pull toward here
-            const Mat3 G = hNew * lu.inverse();
-            const Mat3 Gi = frame / hNew;
-            std::array<Mat3, 3> m;
-            for (std::size_t f = 0; f < 3; ++f) m[f] = G.transpose() * d[f] * G;
-            for (std::size_t c = 0; c < 3; ++c) {
-                Mat3 g = Mat3::Zero();
-                for (std::size_t f = 0; f < 3; ++f) g += Gi(static_cast<Index>(c), static_cast<Index>(f)) * m[f];
-                s.plasticGamma[c][at(p)] = Real(0.5) * (g + g.transpose());
-            }
-        });
+        s.plasticGamma = std::move(restGamma);
         const Mat3 P = body.plasticFlex() * body.flex().inverse();
         const Real det = P.determinant();
         if (!(det > 0)) {

@@ -664,10 +664,11 @@ FrameStats Simulation::advanceTo(int frame) {
         // last, once more substeps have not helped, from the first count again (a frame that more
         // substeps carry keeps its lattice, and its shot its frames).
         const std::size_t fb = static_cast<std::size_t>(failed);
-        if (failed >= 0 && fb < mBodies.size() && mRemapAllowed[fb] && !remappedForRetry[fb] &&
-            mBodies[fb]->lastStepLength() > 0 && (mBodies[fb]->settings().shapeStiffness == 0 || sub >= cap)) {
+        const bool remappable = failed >= 0 && fb < mBodies.size() && mRemapAllowed[fb] && !remappedForRetry[fb] &&
+                                mBodies[fb]->lastStepLength() > 0;
+        const bool lastResort = remappable && mBodies[fb]->settings().shapeStiffness > 0;  // putty
+        if (remappable && (!lastResort || sub >= cap)) {
             remappedForRetry[fb] = 1;
-            const bool lastResort = mBodies[fb]->settings().shapeStiffness > 0;
             if (reparametriseBody(fb, frame,
                                   lastResort ? "it failed the frame at " + std::to_string(firstSub) + " to " +
                                                    std::to_string(sub) + " substeps"
