@@ -359,7 +359,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.collision.detect = detect == "gln" ? CollisionDesc::Detect::Gln : CollisionDesc::Detect::Sdf;
         s.collision.coarseToFine = c.boolean("coarse_to_fine", false);
         s.collision.objects = c.boolean("objects", s.collision.objects);
-        s.collision.distance = c.choice("distance", "grid", {"grid", "exact"}) == "exact"
+        s.collision.distance = c.choice("distance", "exact", {"exact", "grid"}) == "exact"
                                    ? CollisionDesc::Distance::Exact
                                    : CollisionDesc::Distance::Grid;
         s.collision.friction = c.number("friction", s.collision.friction, 0, 1);

@@ -257,12 +257,13 @@ struct CollisionDesc {
     /// Deformable objects collide with each other (each one's deformed lattice surface is a
     /// signed-distance collider for the others, rebuilt every substep; sim/body_contact.hpp).
     bool objects = true;
-    /// How the distance to another body's surface is taken: Grid, a narrow-band distance grid
-    /// at half the body's voxel (OpenVDB, rebuilt every substep); Exact, the exact distance
-    /// queried through a hierarchy over the surface's triangles (collide/mesh_distance), about
-    /// 6× faster in contact (docs/gln.md, "Objects colliding").
+    /// How the distance to another body's surface is taken: Exact, queried point by point
+    /// through a hierarchy over the surface's triangles (collide/mesh_distance); Grid, those
+    /// exact distances sampled at half the body's voxel where the queries reach and read
+    /// trilinearly (collide/sampled_distance), a smoother field at about twice the cost
+    /// (docs/gln.md, "Objects colliding").
     enum class Distance { Grid, Exact };
-    Distance distance = Distance::Grid;
+    Distance distance = Distance::Exact;
     Real friction = 0.5;   ///< between objects: 0 slip .. 1 stick
     Real restitution = 0;  ///< between objects: 0..1
 };

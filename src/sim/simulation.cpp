@@ -291,13 +291,10 @@ Index Simulation::reparametriseDistorted(int frame) {
 
 Real Simulation::PairSurface::distance(const Vec3& x, Vec3* gradient) const {
     if (exact) return exact->signedDistance(x, gradient, beyond);
-    if (gradient) *gradient = grid->gradient(x);
-    return grid->distance(x);
+    return sampled->distance(x, gradient);
 }
 
-bool Simulation::objectContact() const {
-    return mObjectContact && (mSurfaceDistance || mScene.collision.distance == CollisionDesc::Distance::Exact);
-}
+bool Simulation::objectContact() const { return mObjectContact; }
 
 void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
     const std::size_t n = mBodies.size();
@@ -337,7 +334,10 @@ void Simulation::forClosePairs(bool predicted, const PairFn& f) const {
                 } else {
                     const Real voxel = 0.5 * hj;
                     const int band = std::max(3, static_cast<int>(std::ceil(2 * pad / voxel)) + 2);
-                    surface->grid = std::make_shared<const SdfGrid>(mSurfaceDistance(mesh, voxel, band));
+                    if (mesh.triangles.empty())  // no complete cell: infinitely far, as exact has it
+                        surface->exact = std::make_shared<const MeshDistance>(mesh);
+                    else
+                        surface->sampled = std::make_shared<const SampledDistance>(mesh, voxel, band);
                 }
                 surfaces[j] = std::move(surface);
             }

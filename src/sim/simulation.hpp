@@ -9,6 +9,7 @@
 
 #include "base/types.hpp"
 #include "collide/mesh_distance.hpp"
+#include "collide/sampled_distance.hpp"
 #include "dynamics/forces.hpp"
 #include "dynamics/reparametrise.hpp"
 #include "dynamics/stepper.hpp"
@@ -130,9 +131,9 @@ public:
 
     /// Turns a closed triangle mesh into a signed-distance grid (world units, negative inside)
     /// of voxel `voxelSize`, exact `bandVoxels` voxels out and filled inside: the app passes
-    /// io's meshLevelSet (the core has no OpenVDB). Objects collide with each other
-    /// (collision.objects) with collision.distance "grid" only when it is set; "exact" queries
-    /// the other body's lattice surface directly (collide/mesh_distance).
+    /// io's meshLevelSet (the core has no OpenVDB). Used for a re-parametrised body's surface
+    /// (volumeSurface); contact between objects needs no callback (collide/mesh_distance,
+    /// collide/sampled_distance).
     using SurfaceDistance = std::function<SdfGrid(const TriangleMesh& mesh, Real voxelSize, int bandVoxels)>;
     void setSurfaceDistance(SurfaceDistance f) { mSurfaceDistance = std::move(f); }
     /// Meshes the zero isosurface of a signed-distance grid: the app passes io's levelSetMesh.
@@ -164,15 +165,15 @@ private:
     /// the predicted (or current) positions, with the signed distance of j's lattice surface
     /// there (built once per j) and the margin i's points keep from it.
     struct PairSurface {
-        std::shared_ptr<const SdfGrid> grid;        ///< collision.distance "grid"
-        std::shared_ptr<const MeshDistance> exact;  ///< collision.distance "exact"
+        std::shared_ptr<const MeshDistance> exact;       ///< collision.distance "exact"
+        std::shared_ptr<const SampledDistance> sampled;  ///< collision.distance "grid"
         Real beyond = 0;  ///< exact: farther than this from the surface's box, the box's distance
         Real distance(const Vec3& x, Vec3* gradient = nullptr) const;
     };
     using PairFn = std::function<void(std::size_t i, std::size_t j, Real margin,
                                       const std::shared_ptr<const PairSurface>& distance)>;
     void forClosePairs(bool predicted, const PairFn& f) const;
-    /// Objects collide: collision.objects, two bodies, and a way to take the distance.
+    /// Objects collide: collision.objects and at least two bodies.
     bool objectContact() const;
     /// Max over bodies and points of how deep (voxels of the point's body) a point is inside
     /// another body's surface less the margin, at the current positions.
