@@ -51,11 +51,11 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
     std::vector<const Lattice*> lattices;
     for (const BuiltObject& o : objects) lattices.push_back(&o.lattice);
     mSim = std::make_unique<Simulation>(scene, lattices, writeVdb);
-    // Objects colliding with each other (collision.objects): their surfaces as OpenVDB distances.
+    // Goo that is re-parametrised takes its surface from its volume, an OpenVDB level set of its
+    // lattice surface meshed again (sim/simulation, volumeSurface).
     mSim->setSurfaceDistance([](const TriangleMesh& mesh, Real voxel, int band) {
         return meshLevelSet(mesh, voxel, band, "an object's deformed surface");
     });
-    // Goo that is re-parametrised takes its surface from its volume (sim/simulation).
     mSim->setLevelSetMesher([](const SdfGrid& grid) { return levelSetMesh(grid); });
     if (mSim->active()) mSim->checkStartOverlap();
     // Each frame's rendered surface is checked before the frame is written (docs/math.md, "Never a
