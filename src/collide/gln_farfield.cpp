@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <memory>
+#include <new>
 #include <utility>
 #include <vector>
 
@@ -17,6 +19,30 @@ namespace {
 struct NodePair {
     int a, b;
 };
+
+/// An allocator whose value-less construct leaves a trivial type uninitialised, so that a
+/// vector of millions of far pairs is sized without a serial zero fill: the parallel loops that
+/// write its elements then also touch its pages, on every core.
+template <class T>
+struct DefaultInit : std::allocator<T> {
+    template <class U>
+    struct rebind {
+        using other = DefaultInit<U>;
+    };
+    DefaultInit() = default;
+    template <class U>
+    DefaultInit(const DefaultInit<U>&) noexcept {}
+    template <class U>
+    void construct(U* p) noexcept {
+        ::new (static_cast<void*>(p)) U;
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+template <class T>
+using Buffer = std::vector<T, DefaultInit<T>>;
 
 /// What the traversal does with a node pair at opening ratio theta: accept it as far, evaluate
 /// it exactly (two leaves not separated), or open it.
@@ -68,13 +94,13 @@ void traverse(const CurveBvh& ta, const CurveBvh& tb, Real theta, std::vector<No
         ta, tb, NodePair{0, 0}, theta, [&](NodePair p) { far.push_back(p); }, near);
 }
 
-/// The exact sum over the near leaf pairs near[from, near.size()), in parallel (deterministic).
-GlnSum nearSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb,
-               const std::vector<NodePair>& near, GlnKernel kernel, std::size_t from = 0) {
+/// The exact sum over the near leaf pairs near[0, count), in parallel (deterministic).
+GlnSum nearSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA& b, const CurveBvh& tb, const NodePair* near,
+               std::size_t count, GlnKernel kernel) {
     return parallelReduce<GlnSum>(
-        static_cast<Index>(near.size() - from), GlnSum{},
+        static_cast<Index>(count), GlnSum{},
         [&](GlnSum& acc, Index i) {
-            const NodePair& p = near[from + static_cast<std::size_t>(i)];
+            const NodePair& p = near[static_cast<std::size_t>(i)];
             const BvhNode& A = ta.nodes[static_cast<std::size_t>(p.a)];
             const BvhNode& B = tb.nodes[static_cast<std::size_t>(p.b)];
             GlnSum s = glnTile(a, A.begin, A.end, b, B.begin, B.end, kernel);
@@ -140,7 +166,7 @@ FarFieldSum glnFarFieldSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
         out.nearEvaluated = false;
         return out;
     }
-    out.near = nearSum(a, ta, b, tb, near, kernel);
+    out.near = nearSum(a, ta, b, tb, near.data(), near.size(), kernel);
     return out;
 }
 
@@ -153,12 +179,12 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
         NodePair pair;
         Real theta;
     };
-    struct Far {  // a far pair, the ratio it was accepted at, and its multipole
+    struct Far {  // a far pair, the ratio it was accepted at, and its multipole (FarValue's)
         Task at;
-        FarValue v;
+        double value, bound;
     };
-    std::vector<Far> far;
-    std::vector<NodePair> near;
+    Buffer<Far> far;
+    Buffer<NodePair> near;
     // Traverses every task's node pair at its ratio, in parallel over blocks of tasks, and
     // appends the far pairs (with their multipoles) and the near leaf pairs in task order: the
     // lists are the same for any thread count.
@@ -177,23 +203,37 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
                     traverse(
                         ta, tb, task.pair, task.theta,
                         [&](NodePair p) {
-                            f.push_back({{p, task.theta},
-                                         farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)],
-                                                      tb.nodes[static_cast<std::size_t>(p.b)])});
+                            const FarValue v = farFieldPair(ta.nodes[static_cast<std::size_t>(p.a)],
+                                                            tb.nodes[static_cast<std::size_t>(p.b)]);
+                            f.push_back({{p, task.theta}, v.value, v.bound});
                         },
                         e);
                 }
             },
             1);
+        // Appended block by block at offsets from a prefix sum, the copies in parallel (a serial
+        // append of millions of pairs held the second core idle for a third of the sum).
+        std::vector<std::size_t> farAt(fars.size() + 1, far.size()), nearAt(nears.size() + 1, near.size());
         for (std::size_t k = 0; k < fars.size(); ++k) {
-            far.insert(far.end(), fars[k].begin(), fars[k].end());
-            near.insert(near.end(), nears[k].begin(), nears[k].end());
+            farAt[k + 1] = farAt[k] + fars[k].size();
+            nearAt[k + 1] = nearAt[k] + nears[k].size();
         }
+        far.resize(farAt.back());
+        near.resize(nearAt.back());
+        parallelFor(
+            blocks,
+            [&](Index k) {
+                const std::size_t blk = static_cast<std::size_t>(k);
+                std::copy(fars[blk].begin(), fars[blk].end(), far.begin() + static_cast<std::ptrdiff_t>(farAt[blk]));
+                std::copy(nears[blk].begin(), nears[blk].end(),
+                          near.begin() + static_cast<std::ptrdiff_t>(nearAt[blk]));
+            },
+            1);
     };
     auto boundOf = [&] {
         return parallelReduce<double>(
             static_cast<Index>(far.size()), 0.0,
-            [&](double& acc, Index i) { acc += far[static_cast<std::size_t>(i)].v.bound; },
+            [&](double& acc, Index i) { acc += far[static_cast<std::size_t>(i)].bound; },
             [](double x, double y) { return x + y; }, 4096);
     };
     // The first tasks: the root pair opened a few levels (as the traversal opens them), so that
@@ -226,31 +266,61 @@ FarFieldSum glnAdaptiveSum(const CurveSoA& a, const CurveBvh& ta, const CurveSoA
     // `done` asked; if it declines, the target halves and the refinement goes on.
     for (int round = 0; round <= maxRounds; ++round) {
         if (bound <= target) {
-            out.near += nearSum(a, ta, b, tb, near, kernel, evaluated);
+            out.near += nearSum(a, ta, b, tb, near.data() + evaluated, near.size() - evaluated, kernel);
             evaluated = near.size();
-            const FarValue fv =
-                sumFar(static_cast<Index>(far.size()), [&](Index i) { return far[static_cast<std::size_t>(i)].v; });
+            const FarValue fv = sumFar(static_cast<Index>(far.size()), [&](Index i) {
+                const Far& f = far[static_cast<std::size_t>(i)];
+                return FarValue{f.value, f.bound};
+            });
             out.farPairs = static_cast<Index>(far.size());
             out.nearTiles = static_cast<Index>(near.size());
             out.farValue = fv.value;
             out.farBound = fv.bound;
-            out.smallestTheta = 1;
-            for (const Far& f : far) out.smallestTheta = std::min(out.smallestTheta, f.at.theta);
+            out.smallestTheta = parallelReduce<Real>(
+                static_cast<Index>(far.size()), Real(1),
+                [&](Real& acc, Index i) { acc = std::min(acc, far[static_cast<std::size_t>(i)].at.theta); },
+                [](Real x, Real y) { return std::min(x, y); }, 4096);
             out.nearEvaluated = true;
             if (done(out)) return out;
             target = 0.5 * std::min(target, bound);
         }
         if (round == maxRounds) break;
         const double share = 0.5 * target / static_cast<double>(far.size());
-        std::vector<Far> kept;
-        kept.reserve(far.size());
-        std::vector<Task> opened;
-        for (const Far& f : far) {
-            if (f.v.bound > share)
-                opened.push_back({f.at.pair, Real(0.5) * f.at.theta});
-            else
-                kept.push_back(f);
+        // Split into the pairs kept and the pairs opened, in order, block by block in parallel:
+        // each block counts its own, a prefix sum places them.
+        const Index n = static_cast<Index>(far.size());
+        const Index blocks = std::max<Index>(1, std::min<Index>(n / 4096, 256));
+        auto first = [&](Index k) { return static_cast<std::size_t>(k * n / blocks); };
+        std::vector<std::size_t> keptAt(static_cast<std::size_t>(blocks) + 1, 0),
+            openedAt(static_cast<std::size_t>(blocks) + 1, 0);
+        parallelFor(
+            blocks,
+            [&](Index k) {
+                std::size_t o = 0;
+                for (std::size_t i = first(k); i < first(k + 1); ++i) o += far[i].bound > share ? 1 : 0;
+                openedAt[static_cast<std::size_t>(k) + 1] = o;
+                keptAt[static_cast<std::size_t>(k) + 1] = first(k + 1) - first(k) - o;
+            },
+            1);
+        for (std::size_t k = 0; k < static_cast<std::size_t>(blocks); ++k) {
+            keptAt[k + 1] += keptAt[k];
+            openedAt[k + 1] += openedAt[k];
         }
+        Buffer<Far> kept(keptAt.back());
+        std::vector<Task> opened(openedAt.back());
+        parallelFor(
+            blocks,
+            [&](Index k) {
+                std::size_t ki = keptAt[static_cast<std::size_t>(k)], oi = openedAt[static_cast<std::size_t>(k)];
+                for (std::size_t i = first(k); i < first(k + 1); ++i) {
+                    const Far& f = far[i];
+                    if (f.bound > share)
+                        opened[oi++] = {f.at.pair, Real(0.5) * f.at.theta};
+                    else
+                        kept[ki++] = f;
+                }
+            },
+            1);
         far = std::move(kept);
         expand(opened);
         bound = boundOf();
