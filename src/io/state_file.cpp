@@ -2,6 +2,7 @@
 
 #include "io/state_file.hpp"
 
+#include "base/check.hpp"
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
 
@@ -41,6 +42,21 @@ struct Fnv {
     void text(const std::string& s) {
         value(static_cast<std::uint64_t>(s.size()));
         add(s.data(), s.size());
+    }
+};
+
+/// Counts the bytes a Writer would append (the payload's size, known before it is written).
+class Counter {
+public:
+    std::size_t bytes = 0;
+    template <typename T>
+    void value(const T&) {
+        bytes += sizeof(T);
+    }
+    void text(const std::string& s) { bytes += sizeof(std::uint32_t) + s.size(); }
+    template <typename T>
+    void array(const std::vector<T>& v) {
+        bytes += sizeof(std::uint64_t) + v.size() * sizeof(T);
     }
 };
 
@@ -112,7 +128,8 @@ private:
 // Eigen's fixed-size types are plain arrays of their scalars (copied with memcpy here).
 static_assert(sizeof(Vec3) == 3 * sizeof(Real) && sizeof(Mat3) == 9 * sizeof(Real) && sizeof(Vec3i) == 3 * sizeof(int));
 
-void writeBody(Writer& w, const DeformableBodyState& s) {
+template <class W>
+void writeBody(W& w, const DeformableBodyState& s) {
     w.value(static_cast<std::uint64_t>(s.positions.size()));
     w.array(s.positions);
     w.array(s.velocities);
@@ -179,12 +196,6 @@ void readBody(Reader& r, DeformableBodyState& s) {
     r.array(s.volumeCachePinned);
 }
 
-std::uint64_t checksum(const char* data, std::size_t n) {
-    Fnv f;
-    f.add(data, n);
-    return f.h;
-}
-
 std::size_t headerSize(const std::string& version) {
     return sizeof kMagic + 3 * sizeof(std::uint32_t) + sizeof(std::uint32_t) + version.size() + sizeof(std::uint64_t) +
            sizeof(std::int32_t) + 2 * sizeof(std::uint64_t);
@@ -198,30 +209,67 @@ fs::path stateFilePath(const fs::path& outDir, const std::string& name, int fram
     return outDir / "state" / (name + "." + num + ".dgvstate");
 }
 
-std::string serializeState(const StateCheckpoint& c) {
-    Writer payload;
-    payload.value(static_cast<std::uint32_t>(c.statsRows.size()));
-    for (const std::string& row : c.statsRows) payload.text(row);
-    payload.value(static_cast<std::uint32_t>(c.objects.size()));
+namespace {
+
+/// The payload in the format's order, to a Writer or a Counter.
+template <class W>
+void writePayload(W& w, const StateCheckpoint& c) {
+    w.value(static_cast<std::uint32_t>(c.statsRows.size()));
+    for (const std::string& row : c.statsRows) w.text(row);
+    w.value(static_cast<std::uint32_t>(c.objects.size()));
     for (const Simulation::ObjectState& o : c.objects) {
-        payload.value(static_cast<std::uint8_t>(o.present));
+        w.value(static_cast<std::uint8_t>(o.present));
         if (!o.present) continue;
-        writeBody(payload, o.body);
-        payload.value(static_cast<std::int32_t>(o.remaps));
+        writeBody(w, o.body);
+        w.value(static_cast<std::int32_t>(o.remaps));
         if (o.remaps > 0) {
-            payload.value(o.latticeOrigin);
-            payload.value(o.latticeSpacing);
-            payload.value(o.latticeDims);
-            payload.array(o.latticeCoords);
-            payload.array(o.surfaceVertices);
-            payload.array(o.surfaceTriangles);
+            w.value(o.latticeOrigin);
+            w.value(o.latticeSpacing);
+            w.value(o.latticeDims);
+            w.array(o.latticeCoords);
+            w.array(o.surfaceVertices);
+            w.array(o.surfaceTriangles);
         }
     }
-    payload.value(static_cast<std::uint32_t>(c.contactAges.size()));
-    for (const std::vector<int>& a : c.contactAges) payload.array(a);
+    w.value(static_cast<std::uint32_t>(c.contactAges.size()));
+    for (const std::vector<int>& a : c.contactAges) w.array(a);
+}
 
+}  // namespace
+
+std::uint64_t stateChecksum(const char* data, std::size_t n) {
+    // Four lanes of 64-bit words, each FNV-1a's xor and multiply followed by an xor-shift that
+    // carries the high bits down; the lanes, the tail bytes and the length folded together and
+    // finished with splitmix64's mixer. Words are read in the machine's byte order, which the
+    // header records (a file of the other order is refused before its checksum is read).
+    constexpr std::uint64_t kBasis = 1469598103934665603ull, kPrime = 1099511628211ull;
+    std::uint64_t lane[4] = {kBasis, kBasis ^ 1, kBasis ^ 2, kBasis ^ 3};
+    std::size_t i = 0;
+    for (; i + 32 <= n; i += 32)
+        for (int l = 0; l < 4; ++l) {
+            std::uint64_t w;
+            std::memcpy(&w, data + i + 8 * static_cast<std::size_t>(l), sizeof w);
+            const std::uint64_t x = (lane[l] ^ w) * kPrime;
+            lane[l] = x ^ (x >> 29);
+        }
+    std::uint64_t h = kBasis;
+    for (std::uint64_t l : lane) h = (h ^ l) * kPrime;
+    for (; i < n; ++i) h = (h ^ static_cast<unsigned char>(data[i])) * kPrime;
+    h = (h ^ static_cast<std::uint64_t>(n)) * kPrime;
+    h ^= h >> 30;
+    h *= 0xbf58476d1ce4e5b9ull;
+    h ^= h >> 27;
+    h *= 0x94d049bb133111ebull;
+    return h ^ (h >> 31);
+}
+
+std::string serializeState(const StateCheckpoint& c) {
+    // One buffer of the file's exact size: the header, the payload written after it, then the
+    // payload's checksum patched into the header (no second copy of a payload of megabytes).
+    Counter count;
+    writePayload(count, c);
     Writer file;
-    file.bytes.reserve(headerSize(c.dgvVersion) + payload.bytes.size());
+    file.bytes.reserve(headerSize(c.dgvVersion) + count.bytes);
     file.bytes.append(kMagic, sizeof kMagic);
     file.value(kStateFormatVersion);
     file.value(kByteOrder);
@@ -229,9 +277,14 @@ std::string serializeState(const StateCheckpoint& c) {
     file.text(c.dgvVersion);
     file.value(c.sceneKey);
     file.value(static_cast<std::int32_t>(c.frame));
-    file.value(static_cast<std::uint64_t>(payload.bytes.size()));
-    file.value(checksum(payload.bytes.data(), payload.bytes.size()));
-    file.bytes += payload.bytes;
+    file.value(static_cast<std::uint64_t>(count.bytes));
+    const std::size_t sumAt = file.bytes.size();
+    file.value(std::uint64_t(0));
+    const std::size_t start = file.bytes.size();
+    writePayload(file, c);
+    DGV_CHECK_EQ(file.bytes.size() - start, count.bytes);
+    const std::uint64_t sum = stateChecksum(file.bytes.data() + start, count.bytes);
+    std::memcpy(&file.bytes[sumAt], &sum, sizeof sum);
     return std::move(file.bytes);
 }
 
@@ -289,7 +342,7 @@ std::string parseState(const std::string& bytes, StateCheckpoint& out) {
     if (bytes.size() - start != payloadBytes)
         return (bytes.size() - start < payloadBytes ? "truncated: " : "trailing bytes: ") +
                std::to_string(bytes.size()) + " of " + std::to_string(start + payloadBytes) + " bytes";
-    if (checksum(bytes.data() + start, payloadBytes) != sum) return "checksum mismatch (corrupt)";
+    if (stateChecksum(bytes.data() + start, payloadBytes) != sum) return "checksum mismatch (corrupt)";
 
     Reader r(bytes.data() + start, static_cast<std::size_t>(payloadBytes));
     const auto rows = r.value<std::uint32_t>();

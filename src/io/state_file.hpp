@@ -5,11 +5,11 @@
 /// needs to continue bit-identically from that frame (dynamics/body_state.hpp), the stats.csv
 /// rows of the frames so far, and the renderer's per-point contact history.
 ///
-/// Format (version 1; all integers and reals in the machine's byte order, which the header
+/// Format (version 9; all integers and reals in the machine's byte order, which the header
 /// records, reals as IEEE doubles):
 ///   "DGVSTATE" | u32 format version | u32 0x01020304 (byte order) | u32 sizeof(Real)
-///   | str dgv version | u64 scene key | i32 frame | u64 payload bytes | u64 payload FNV-1a 64
-///   | payload
+///   | str dgv version | u64 scene key | i32 frame | u64 payload bytes | u64 payload checksum
+///   (stateChecksum) | payload
 /// payload: u32 rows, str each | u32 objects, per object: u8 present, and when present u64 #P
 ///   and the arrays of DeformableBodyState in declaration order (vectors: u64 count + elements;
 ///   bools as u8) | u32 contact histories, each u64 count + i32 elements.
@@ -30,9 +30,13 @@
 namespace dgv {
 
 inline constexpr std::uint32_t kStateFormatVersion =
-    8;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load
+    9;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load
         ///< modes' amplitudes; 6: the volume multipliers' prediction; 7: the time in free flight; 8: a re-parametrised
-        ///< body's lattice and surface
+        ///< body's lattice and surface; 9: the payload's checksum over 64-bit words (stateChecksum)
+
+/// The payload's checksum: FNV-1a's step on four lanes of 64-bit words, folded and mixed
+/// (state_file.cpp); a fifth of byte-wise FNV-1a's time on a checkpoint of megabytes.
+std::uint64_t stateChecksum(const char* data, std::size_t n);
 
 struct StateCheckpoint {
     std::string dgvVersion;                        ///< DGV_VERSION_STRING of the writer

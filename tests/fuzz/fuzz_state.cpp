@@ -19,11 +19,7 @@ void put(std::string& s, const T& v) {
 }
 
 std::string wrap(const std::string& payload) {
-    std::uint64_t h = 1469598103934665603ull;  // FNV-1a 64, as state_file.cpp
-    for (unsigned char c : payload) {
-        h ^= c;
-        h *= 1099511628211ull;
-    }
+    const std::uint64_t h = dgv::stateChecksum(payload.data(), payload.size());
     std::string s = "DGVSTATE";
     put(s, dgv::kStateFormatVersion);
     put(s, std::uint32_t(0x01020304u));

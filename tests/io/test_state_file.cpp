@@ -141,9 +141,11 @@ TEST_CASE("state_file: truncated, corrupt, foreign and missing files are reporte
     std::ofstream(bad, std::ios::binary | std::ios::trunc) << flipped;
     CHECK(readStateFile(bad, r) == "checksum mismatch (corrupt)");
     std::string version = bytes;
-    version[8] = 9;  // the format version, little-endian u32 after the magic
+    const std::uint32_t other = kStateFormatVersion + 1;  // a version this dgv does not read
+    version[8] = static_cast<char>(other);                // the format version, little-endian u32 after the magic
     std::ofstream(bad, std::ios::binary | std::ios::trunc) << version;
-    CHECK(readStateFile(bad, r) == "format version 9, this dgv reads " + std::to_string(kStateFormatVersion));
+    CHECK(readStateFile(bad, r) ==
+          "format version " + std::to_string(other) + ", this dgv reads " + std::to_string(kStateFormatVersion));
     std::ofstream(bad, std::ios::binary | std::ios::trunc) << "DGVSTATX and more";
     CHECK(readStateFile(bad, r) == "not a dgv state file");
     CHECK(readStateFile(dir.path() / "absent.dgvstate", r) == "no such file");
@@ -159,12 +161,14 @@ TEST_CASE("state_file: a large foreign file is refused by its first bytes, not r
     const fs::path big = dir.path() / "big.dgvstate";
     rusage before{};
     getrusage(RUSAGE_SELF, &before);
-    for (const std::string& head : {std::string("NOTADGV!"), std::string("DGVSTATE\x09\0\0\0")}) {
+    const std::uint32_t other = kStateFormatVersion + 1;  // a version this dgv does not read
+    for (const std::string& head :
+         {std::string("NOTADGV!"), std::string("DGVSTATE") + static_cast<char>(other) + std::string(3, '\0')}) {
         std::ofstream(big, std::ios::binary | std::ios::trunc) << head;
         fs::resize_file(big, std::uintmax_t(1) << 30);
         StateCheckpoint r;
         const std::string why = readStateFile(big, r);
-        CHECK((why == "not a dgv state file" || why.rfind("format version 9", 0) == 0));
+        CHECK((why == "not a dgv state file" || why.rfind("format version " + std::to_string(other), 0) == 0));
     }
     rusage after{};
     getrusage(RUSAGE_SELF, &after);
