@@ -55,18 +55,29 @@ inline void locate(Real t, int n, int& i, Real& f) {
     f = t - Real(i);
 }
 
+/// The cell of the samples that x, clamped into their box (`c`), lies in: its lower sample
+/// (i, j, k) and the fractions along each axis.
+struct Cell {
+    Vec3 c;
+    int i, j, k;
+    Real fx, fy, fz;
+};
+inline Cell locateCell(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x) {
+    const Vec3 hi = origin + spacing * (dims.cast<Real>() - Vec3::Ones());
+    Cell cell;
+    cell.c = x.cwiseMax(origin).cwiseMin(hi);
+    const Vec3 t = (cell.c - origin) / spacing;
+    locate(t.x(), dims.x(), cell.i, cell.fx);
+    locate(t.y(), dims.y(), cell.j, cell.fy);
+    locate(t.z(), dims.z(), cell.k, cell.fz);
+    return cell;
+}
+
 }  // namespace sdf_detail
 
 template <class At>
 Real sdfDistance(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at) {
-    const Vec3 hi = origin + spacing * (dims.cast<Real>() - Vec3::Ones());
-    const Vec3 c = x.cwiseMax(origin).cwiseMin(hi);
-    const Vec3 t = (c - origin) / spacing;
-    int i, j, k;
-    Real fx, fy, fz;
-    sdf_detail::locate(t.x(), dims.x(), i, fx);
-    sdf_detail::locate(t.y(), dims.y(), j, fy);
-    sdf_detail::locate(t.z(), dims.z(), k, fz);
+    const auto [c, i, j, k, fx, fy, fz] = sdf_detail::locateCell(origin, spacing, dims, x);
     auto lerp = [](Real a, Real bb, Real f) { return a + (bb - a) * f; };
     const Real c00 = lerp(at(i, j, k), at(i + 1, j, k), fx), c10 = lerp(at(i, j + 1, k), at(i + 1, j + 1, k), fx);
     const Real c01 = lerp(at(i, j, k + 1), at(i + 1, j, k + 1), fx),
@@ -77,14 +88,7 @@ Real sdfDistance(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3
 
 template <class At>
 Vec3 sdfGradient(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at) {
-    const Vec3 hi = origin + spacing * (dims.cast<Real>() - Vec3::Ones());
-    const Vec3 c = x.cwiseMax(origin).cwiseMin(hi);
-    const Vec3 t = (c - origin) / spacing;
-    int i, j, k;
-    Real fx, fy, fz;
-    sdf_detail::locate(t.x(), dims.x(), i, fx);
-    sdf_detail::locate(t.y(), dims.y(), j, fy);
-    sdf_detail::locate(t.z(), dims.z(), k, fz);
+    const auto [c, i, j, k, fx, fy, fz] = sdf_detail::locateCell(origin, spacing, dims, x);
     Real v[2][2][2];
     for (int dz = 0; dz < 2; ++dz)
         for (int dy = 0; dy < 2; ++dy)
