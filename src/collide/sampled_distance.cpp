@@ -86,8 +86,9 @@ Vec3 SampledDistance::gradient(const Vec3& x) const {
 }
 
 Real SampledDistance::distance(const Vec3& x, Vec3* gradient) const {
-    if (gradient) *gradient = this->gradient(x);
-    return distance(x);
+    if (!gradient) return distance(x);
+    return sdfDistance(
+        mOrigin, mVoxel, mDims, x, [this](int i, int j, int k) { return Real(sample(i, j, k)); }, *gradient);
 }
 
 }  // namespace dgv

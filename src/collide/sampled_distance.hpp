@@ -4,11 +4,11 @@
 /// of samples computed the first time a query needs it: the distance between bodies in contact
 /// (sim/simulation, the other body's lattice surface; docs/gln.md, "Objects colliding").
 ///
-/// It is the field of a narrow-band level set of the mesh (OpenVDB's mesh-to-level-set with its
-/// interior filled, read as an SdfGrid): sample (i, j, k) at `voxel` · (i, j, k) in world space
-/// holds the exact signed distance (MeshDistance, rounded to float), clamped above at `band`
-/// voxels outside; queries interpolate trilinearly inside the samples' box and grow like a
-/// distance beyond it, exactly as SdfGrid does. Only the blocks of 8³ samples a query touches
+/// It is a narrow-band level set of the mesh with its interior filled, read as an SdfGrid, with
+/// exact samples: sample (i, j, k) at `voxel` · (i, j, k) in world space holds the exact signed
+/// distance (MeshDistance, rounded to float), clamped above at `band` voxels outside; queries
+/// interpolate trilinearly inside the samples' box and grow like a distance beyond it, by
+/// SdfGrid's own rule (geom/sdf_grid.hpp). Only the blocks of 8³ samples a query touches
 /// are computed, so a contact costs in proportion to the region where the bodies meet, not to
 /// the surface of the whole body, and a block whose centre is more than the band plus its own
 /// half-diagonal outside the mesh is filled with the clamp without a query per sample.
@@ -40,7 +40,7 @@ public:
     Real spacing() const { return mVoxel; }
     Vec3 origin() const { return mOrigin; }
     Vec3i dims() const { return mDims; }
-    /// Blocks computed so far (for benchmarks and tests).
+    /// Blocks computed so far (for tests; not while queries run on other threads).
     std::size_t blocksFilled() const;
 
 private:

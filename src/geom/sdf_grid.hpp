@@ -28,6 +28,9 @@ template <class At>
 Real sdfDistance(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at);
 template <class At>
 Vec3 sdfGradient(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at);
+/// Both, from one lookup of the eight samples.
+template <class At>
+Real sdfDistance(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at, Vec3& gradient);
 
 struct SdfGrid {
     Vec3 origin = Vec3::Zero();  ///< world position of sample (0, 0, 0)
@@ -55,62 +58,78 @@ inline void locate(Real t, int n, int& i, Real& f) {
     f = t - Real(i);
 }
 
-/// The cell of the samples that x, clamped into their box (`c`), lies in: its lower sample
-/// (i, j, k) and the fractions along each axis.
-struct Cell {
+/// The eight samples around x, clamped into the samples' box (`c`): the cell's lower sample's
+/// fractions along each axis and the samples themselves, v[dx][dy][dz] = at(i + dx, ...).
+struct Corners {
     Vec3 c;
-    int i, j, k;
     Real fx, fy, fz;
+    Real v[2][2][2];
 };
-inline Cell locateCell(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x) {
+template <class At>
+Corners gather(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at) {
     const Vec3 hi = origin + spacing * (dims.cast<Real>() - Vec3::Ones());
-    Cell cell;
-    cell.c = x.cwiseMax(origin).cwiseMin(hi);
-    const Vec3 t = (cell.c - origin) / spacing;
-    locate(t.x(), dims.x(), cell.i, cell.fx);
-    locate(t.y(), dims.y(), cell.j, cell.fy);
-    locate(t.z(), dims.z(), cell.k, cell.fz);
-    return cell;
+    Corners q;
+    q.c = x.cwiseMax(origin).cwiseMin(hi);
+    const Vec3 t = (q.c - origin) / spacing;
+    int i, j, k;
+    locate(t.x(), dims.x(), i, q.fx);
+    locate(t.y(), dims.y(), j, q.fy);
+    locate(t.z(), dims.z(), k, q.fz);
+    for (int dz = 0; dz < 2; ++dz)
+        for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) q.v[dx][dy][dz] = at(i + dx, j + dy, k + dz);
+    return q;
+}
+
+/// SdfGrid::distance's value from the eight samples.
+inline Real interpolate(const Corners& q, const Vec3& x) {
+    auto lerp = [](Real a, Real bb, Real f) { return a + (bb - a) * f; };
+    const auto& v = q.v;
+    const Real c00 = lerp(v[0][0][0], v[1][0][0], q.fx), c10 = lerp(v[0][1][0], v[1][1][0], q.fx);
+    const Real c01 = lerp(v[0][0][1], v[1][0][1], q.fx), c11 = lerp(v[0][1][1], v[1][1][1], q.fx);
+    const Real inside = lerp(lerp(c00, c10, q.fy), lerp(c01, c11, q.fy), q.fz);
+    return inside + (x - q.c).norm();
+}
+
+/// SdfGrid::gradient's value from the eight samples.
+inline Vec3 slope(const Corners& q, Real spacing, const Vec3& x) {
+    const Real wx[2] = {1 - q.fx, q.fx}, wy[2] = {1 - q.fy, q.fy}, wz[2] = {1 - q.fz, q.fz};
+    Vec3 g = Vec3::Zero();
+    for (int dz = 0; dz < 2; ++dz)
+        for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+                const Real s = q.v[dx][dy][dz];
+                g.x() += s * (dx ? 1 : -1) * wy[dy] * wz[dz];
+                g.y() += s * wx[dx] * (dy ? 1 : -1) * wz[dz];
+                g.z() += s * wx[dx] * wy[dy] * (dz ? 1 : -1);
+            }
+    g /= spacing;
+    const Vec3 out = x - q.c;
+    const Real n = out.norm();
+    if (n > 0) {
+        for (int a = 0; a < 3; ++a)
+            if (x[a] != q.c[a]) g[a] = out[a] / n;
+    }
+    return g;
 }
 
 }  // namespace sdf_detail
 
 template <class At>
 Real sdfDistance(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at) {
-    const auto [c, i, j, k, fx, fy, fz] = sdf_detail::locateCell(origin, spacing, dims, x);
-    auto lerp = [](Real a, Real bb, Real f) { return a + (bb - a) * f; };
-    const Real c00 = lerp(at(i, j, k), at(i + 1, j, k), fx), c10 = lerp(at(i, j + 1, k), at(i + 1, j + 1, k), fx);
-    const Real c01 = lerp(at(i, j, k + 1), at(i + 1, j, k + 1), fx),
-               c11 = lerp(at(i, j + 1, k + 1), at(i + 1, j + 1, k + 1), fx);
-    const Real inside = lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
-    return inside + (x - c).norm();
+    return sdf_detail::interpolate(sdf_detail::gather(origin, spacing, dims, x, at), x);
 }
 
 template <class At>
 Vec3 sdfGradient(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at) {
-    const auto [c, i, j, k, fx, fy, fz] = sdf_detail::locateCell(origin, spacing, dims, x);
-    Real v[2][2][2];
-    for (int dz = 0; dz < 2; ++dz)
-        for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) v[dx][dy][dz] = at(i + dx, j + dy, k + dz);
-    const Real wx[2] = {1 - fx, fx}, wy[2] = {1 - fy, fy}, wz[2] = {1 - fz, fz};
-    Vec3 g = Vec3::Zero();
-    for (int dz = 0; dz < 2; ++dz)
-        for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-                const Real s = v[dx][dy][dz];
-                g.x() += s * (dx ? 1 : -1) * wy[dy] * wz[dz];
-                g.y() += s * wx[dx] * (dy ? 1 : -1) * wz[dz];
-                g.z() += s * wx[dx] * wy[dy] * (dz ? 1 : -1);
-            }
-    g /= spacing;
-    const Vec3 out = x - c;
-    const Real n = out.norm();
-    if (n > 0) {
-        for (int a = 0; a < 3; ++a)
-            if (x[a] != c[a]) g[a] = out[a] / n;
-    }
-    return g;
+    return sdf_detail::slope(sdf_detail::gather(origin, spacing, dims, x, at), spacing, x);
+}
+
+template <class At>
+Real sdfDistance(const Vec3& origin, Real spacing, const Vec3i& dims, const Vec3& x, const At& at, Vec3& gradient) {
+    const sdf_detail::Corners q = sdf_detail::gather(origin, spacing, dims, x, at);
+    gradient = sdf_detail::slope(q, spacing, x);
+    return sdf_detail::interpolate(q, x);
 }
 
 }  // namespace dgv
