@@ -92,11 +92,12 @@ TEST_CASE("body contact: two jelly balls thrown at each other squash, bounce apa
     REQUIRE(off.size() == 24);
     const Real ke0 = off.front().at("kinetic_energy");
     for (const auto& row : off) CHECK(row.at("kinetic_energy") == Approx(ke0).epsilon(1e-6));
-    // "exact": the sdf detection with the exact distance to the other body's surface.
-    for (const std::string detect : {"sdf", "gln", "exact"}) {
+    // sdf and gln with the default exact distance to the other body's surface; "grid": the sdf
+    // detection with that distance sampled on a grid (collide/sampled_distance).
+    for (const std::string detect : {"sdf", "gln", "grid"}) {
         INFO(detect);
-        writeBlobs(dir.path(), detect == "exact" ? std::string(R"({ "restitution": 0.3, "distance": "exact" })")
-                                                 : R"({ "restitution": 0.3, "detect": ")" + detect + R"(" })");
+        writeBlobs(dir.path(), detect == "grid" ? std::string(R"({ "restitution": 0.3, "distance": "grid" })")
+                                                : R"({ "restitution": 0.3, "detect": ")" + detect + R"(" })");
         const e2e::Run run = e2e::runDgvIn(dir.path(), "-q simulate blobs.json --out " + detect);
         REQUIRE(run.exitCode == 0);
         const auto rows = e2e::readStatsCsv(dir.path() / detect / "stats.csv");
