@@ -1,7 +1,7 @@
-// dgv bench: runs the named benchmarks (app/bench_<name>.cpp), each printing
+// dgv bench: runs the named benchmarks (bench/bench_<name>.cpp), each printing
 // "name: value unit" lines.
 
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 #include "app/commands.hpp"
 #include "base/errors.hpp"
 

@@ -4,7 +4,7 @@
 #include "app/curve_scene.hpp"
 #include "app/resume.hpp"
 #include "app/dynamics_run.hpp"
-#include "app/scene_build.hpp"
+#include "io/scene_build.hpp"
 #include "app/collider_draw.hpp"
 #include "base/errors.hpp"
 #include "base/progress.hpp"
@@ -15,9 +15,7 @@
 #include "io/state_file.hpp"
 #include "render/camera.hpp"
 #include "render/renderer.hpp"
-#include "sim/contact_highlight.hpp"
-#include "sim/gln_overlay.hpp"
-#include "sim/lattice_overlay.hpp"
+#include "view/frame_view.hpp"
 
 #include <unistd.h>
 
@@ -160,11 +158,6 @@ Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
 
 }  // namespace
 
-/// Passes of smoothVertexScalar over a body's highlight: enough to round off the lattice's
-/// steps on the shipped scenes' meshes (2-4 triangles a voxel), not so many that it blurs the
-/// patch (each pass reaches one triangle further).
-constexpr int kHighlightSmoothing = 4;
-
 int runRender(const RenderOptions& options) {
     SceneDesc scene = loadScene(options.scene);
     int first = scene.frameStart, last = scene.frameEnd;
@@ -202,8 +195,6 @@ int runRender(const RenderOptions& options) {
     // Build every object before anything is written: bad meshes or settings fail up front.
     resolvePinGroups(scene);
     std::vector<BuiltObject> objects = buildObjects(scene, scene.output.vdb);
-    Box3 bounds;
-    for (const BuiltObject& o : objects) bounds.extend(meshBounds(o.restMesh));
 
     // The dynamics (a scene with forces or initial velocities): frames are sequential in time,
     // so a range A-B simulates from the scene's first frame; stats.csv is rewritten each frame.
@@ -217,101 +208,14 @@ int runRender(const RenderOptions& options) {
 
     ensureDirectory(scene.output.dir);
     removeStaleOutputTemporaries(scene.output.dir);
-    FrameScene frameScene;
-    frameScene.groundPlane = scene.render.ground;
-    // A ground collider is drawn as the render's ground plane, at its height (the highest, if
-    // there are several): a falling body then approaches a fixed floor.
-    for (const ColliderDesc& c : scene.colliders)
-        if (c.type == ColliderType::Ground)
-            frameScene.groundHeight = std::max(frameScene.groundHeight.value_or(c.height), c.height);
-    frameScene.meshes.resize(objects.size());
-    for (std::size_t i = 0; i < objects.size(); ++i) {
-        frameScene.meshes[i].triangles = objects[i].restMesh.triangles;
-        frameScene.meshes[i].colour = objects[i].color;
-        frameScene.meshes[i].creasePositions = objects[i].restMesh.vertices;  // same split for any --frames
-    }
-    // Static colliders after the objects (level sets: their zero isosurface), framed with them.
-    const std::size_t firstCollider = frameScene.meshes.size();
-    for (DrawMesh& m : colliderDrawMeshes(scene)) {
-        for (const Vec3& p : m.positions) bounds.extend(p);
-        m.opacity = scene.render.colliderOpacity;  // render.collider_opacity: see the contact behind
-        frameScene.meshes.push_back(std::move(m));
-    }
-    // Contact highlighting (render.contact): the contact set R as a ramp on each moving surface.
-    const RenderDesc& rd = scene.render;
-    const ContactHighlightMode contactMode = rd.contactMode == "depth"    ? ContactHighlightMode::Depth
-                                             : rd.contactMode == "recent" ? ContactHighlightMode::Recent
-                                                                          : ContactHighlightMode::Off;
-    for (std::size_t i = 0; i < objects.size(); ++i) {
-        ScalarRamp& ramp = frameScene.meshes[i].ramp;
-        // Colours not given are chosen to stand out from the surface (an orange putty gets blue).
-        const HighlightColours auto_ = contrastingHighlight(objects[i].color);
-        ramp.high = rd.contactHighSet ? rd.contactHigh : auto_.high;
-        ramp.glow = rd.contactGlow;
-        if (contactMode == ContactHighlightMode::Recent) {
-            // From `high` (in R now) back to `low`, by default the surface's own colour.
-            ramp.low = rd.contactLowSet ? rd.contactLow : objects[i].color;
-            ramp.min = 0;
-            ramp.max = 1;
-        } else {
-            // Scalars are depth + edge in R and -edge outside (contactPointScalar).
-            const Real depthMax = rd.contactDepthMax > 0 ? rd.contactDepthMax : objects[i].lattice.spacing;
-            ramp.low = rd.contactLowSet ? rd.contactLow : auto_.low;
-            ramp.min = 0.25 * depthMax;
-            ramp.max = 1.25 * depthMax;
-        }
-    }
-    // Footprints (render.contact.footprint): the colliders carry the highlight where bodies
-    // touch them, from the collider's colour to the highlight's, and the ground plane takes
-    // marks, so a contact under a body or on its far side still shows around it. Each body's
-    // contacts show in its own highlight colour, on the body and on what it touches.
-    const bool footprints = contactMode != ContactHighlightMode::Off && rd.contactFootprint;
-    std::vector<Box3> colliderBounds;  // the static colliders' bounds, for which body touches which
-    if (footprints)
-        for (std::size_t m = firstCollider; m < frameScene.meshes.size(); ++m) {
-            Box3 box;
-            for (const Vec3& v : frameScene.meshes[m].positions) box.extend(v);
-            colliderBounds.push_back(box);
-            frameScene.meshes[m].ramp.low = frameScene.meshes[m].colour;
-            frameScene.meshes[m].ramp.min = 0;
-            frameScene.meshes[m].ramp.max = 1;
-            frameScene.meshes[m].ramp.glow = rd.contactGlow;
-        }
-    frameScene.groundMarkGlow = rd.contactGlow;
-    // render.pins: each object's pinned lattice points as dots, after the lattice overlay's.
-    const std::size_t firstPinSet = rd.overlayLattice ? objects.size() : 0;
-    if (rd.pins) {
-        frameScene.points.resize(firstPinSet + objects.size());
-        for (std::size_t i = 0; i < objects.size(); ++i) {
-            frameScene.points[firstPinSet + i].colour = rd.pinColour;
-            frameScene.points[firstPinSet + i].size = rd.pinPointSize;
-            frameScene.points[firstPinSet + i].onTop = false;  // the pins on the near side, as the body hides the rest
-        }
-    }
-    // render.overlays.lattice: the points drawn, per object (lattice_set "boundary": the
-    // surface layer facing the camera, so the dots do not stack into stripes through the body).
-    std::vector<std::vector<Index>> latticeShown(objects.size());
-    if (rd.overlayLattice) {
-        frameScene.points.resize(std::max(frameScene.points.size(), objects.size()));
-        for (std::size_t i = 0; i < objects.size(); ++i) {
-            frameScene.points[i].colour = rd.overlayLatticeColour;
-            frameScene.points[i].size = rd.overlayPointSize;
-            if (rd.overlayLatticeSet == "boundary") latticeShown[i] = boundaryPoints(objects[i].lattice);
-        }
-    }
-    // GLN network loops (render.overlays.gln_loops): each object's network built here as the
-    // simulation builds it (the loops depend only on the lattice), so the loops can be shown
-    // whichever way the scene detects contact.
-    const GlnLoopSet loopSet = glnLoopSetFromName(rd.overlayGlnLoopSet);
-    std::vector<std::unique_ptr<GlnNetwork>> loopNetworks(objects.size());
-    if (rd.overlayGlnLoops) {
-        if (loopSet == GlnLoopSet::Contact && scene.collision.detect != CollisionDesc::Detect::Gln)
-            logInfo(
-                "render.overlays.gln_loops: collision.detect is not \"gln\", so the loops drawn are those of the "
-                "points in the signed-distance contact set");
-        for (std::size_t i = 0; i < objects.size(); ++i)
-            if (objects[i].lattice.size() > 0) loopNetworks[i] = std::make_unique<GlnNetwork>(objects[i].lattice);
-    }
+    // The frame as drawn: objects, colliders (level sets: their zero isosurface), highlight and
+    // overlays (view/frame_view).
+    std::vector<ViewObject> viewObjects;
+    for (const BuiltObject& o : objects)
+        viewObjects.push_back({&o.restMesh, &o.lattice, &o.embedding, &o.state, o.color});
+    FrameView view(scene, std::move(viewObjects), colliderDrawMeshes(scene));
+    const Box3& bounds = view.bounds();
+    std::vector<ViewBody> viewBodies(objects.size());
 
     PngWriteOptions png;
     png.bitDepth = scene.render.bitDepth;
@@ -359,106 +263,13 @@ int runRender(const RenderOptions& options) {
         if (frame > dynamics.done() + 1) dynamics.restoreCheckpoint(frame);
         dynamics.advanceTo(frame);
         const Camera camera = frameCamera(scene, bounds, frame, aspect);
-        if (rd.overlayGlnLoops) frameScene.lines.clear();  // this frame's loops replace the last frame's
-        // The points that mark the colliders this frame: where, how strongly (0..1], how wide.
-        std::vector<Vec3> markPoints;
-        std::vector<Real> markValues, markRadii;
-        std::vector<std::size_t> markBody;
         for (std::size_t i = 0; i < objects.size(); ++i) {
             const DeformableBody* body = dynamics.body(i);
-            // A re-parametrised body (goo) lives on a lattice of its own: the overlays made on the
-            // object's lattice do not fit it.
-            const bool ownLattice = !body || &body->lattice() == &objects[i].lattice;
-            if (body && &dynamics.surfaceMesh(i) != &objects[i].restMesh &&
-                frameScene.meshes[i].triangles != dynamics.surfaceMesh(i).triangles) {
-                frameScene.meshes[i].triangles = dynamics.surfaceMesh(i).triangles;
-                frameScene.meshes[i].creasePositions = dynamics.surfaceMesh(i).vertices;
-            }
-            deformVertices(body ? dynamics.embedding(i) : objects[i].embedding, body ? body->state() : objects[i].state,
-                           frameScene.meshes[i].positions);
-            if (contactMode != ContactHighlightMode::Off && body) {
-                std::vector<Real> pointValue = contactPointScalar(contactMode, body->contact(), body->contactDepth(),
-                                                                  dynamics.contactHistory(i).age(),
-                                                                  rd.contactFadeFrames, frameScene.meshes[i].ramp.min);
-                if (footprints) {
-                    const std::vector<Vec3>& x = body->state().position;
-                    const Real reach = body->lattice().spacing * (1 + rd.contactSpread);
-                    for (std::size_t p = 0; p < pointValue.size() && p < x.size(); ++p)
-                        if (pointValue[p] > 0) {
-                            markPoints.push_back(x[p]);
-                            // Depth: every point in R at full strength; recent: as it fades.
-                            markValues.push_back(contactMode == ContactHighlightMode::Depth ? Real(1) : pointValue[p]);
-                            markRadii.push_back(reach);
-                            markBody.push_back(i);
-                        }
-                }
-                spreadPointScalar(body->lattice(), pointValue, rd.contactSpread);
-                pointScalarToVertices(dynamics.embedding(i), pointValue, frameScene.meshes[i].scalar);
-                smoothVertexScalar(frameScene.meshes[i].triangles, frameScene.meshes[i].scalar, kHighlightSmoothing);
-            }
-            if (rd.overlayLattice) {
-                const std::vector<Vec3>& x = (body ? body->state() : objects[i].state).position;
-                frameScene.points[i].points =
-                    rd.overlayLatticeSet == "all" || !ownLattice
-                        ? x
-                        : latticeOverlayPoints(objects[i].lattice, x, latticeShown[i], &camera.eye);
-            }
-            if (rd.pins) {
-                std::vector<Vec3>& dots = frameScene.points[firstPinSet + i].points;
-                dots.clear();
-                if (body && body->anyPinned()) {
-                    const std::vector<Vec3>& x = body->state().position;
-                    for (std::size_t p = 0; p < body->pinned().size() && p < x.size(); ++p)
-                        if (body->pinned()[p]) dots.push_back(x[p]);
-                }
-            }
-            if (loopNetworks[i] && ownLattice) {
-                static const std::vector<unsigned char> kNoContact;
-                for (ClosedCurve& loop :
-                     glnOverlayLoops(*loopNetworks[i], loopSet, (body ? body->state() : objects[i].state).position,
-                                     body ? body->contact() : kNoContact, &camera.eye)) {
-                    Polyline line;
-                    line.points = std::move(loop);
-                    line.colour = rd.overlayGlnColour;
-                    line.width = rd.overlayLineWidth;
-                    line.onTop = true;  // the rings lie on boundary lattice points, under the surface
-                    frameScene.lines.push_back(std::move(line));
-                }
-            }
+            viewBodies[i] = body ? ViewBody{body, &dynamics.surfaceMesh(i), &dynamics.embedding(i),
+                                            &dynamics.contactHistory(i).age()}
+                                 : ViewBody{};
         }
-        if (footprints) {
-            Real reach = 0;
-            for (Real r : markRadii) reach = std::max(reach, r);
-            for (std::size_t m = firstCollider; m < frameScene.meshes.size(); ++m) {
-                DrawMesh& collider = frameScene.meshes[m];
-                footprintScalar(collider.positions, markPoints, markValues, reach, 1e-3, collider.scalar);
-                // One ramp per collider: the colour of the body it is touched by most (the
-                // first such body on a tie), judged by the marks within reach of its bounds.
-                const Box3& box = colliderBounds[m - firstCollider];
-                std::vector<std::size_t> near(objects.size(), 0);
-                for (std::size_t k = 0; k < markPoints.size(); ++k)
-                    if ((markPoints[k].array() >= box.min.array() - reach).all() &&
-                        (markPoints[k].array() <= box.max.array() + reach).all())
-                        ++near[markBody[k]];
-                const std::size_t most =
-                    static_cast<std::size_t>(std::max_element(near.begin(), near.end()) - near.begin());
-                collider.ramp.high = frameScene.meshes[most].ramp.high;
-            }
-            // Ground marks from the points within a lattice step of the drawn ground plane.
-            frameScene.groundMarks.clear();
-            if (frameScene.groundHeight && frameScene.groundPlane)
-                for (std::size_t k = 0; k < markPoints.size(); ++k) {
-                    const Real step = markRadii[k] / (1 + rd.contactSpread);
-                    if (std::abs(markPoints[k].y() - *frameScene.groundHeight) > step) continue;
-                    GroundMark g;
-                    g.x = markPoints[k].x();
-                    g.z = markPoints[k].z();
-                    g.radius = markRadii[k];
-                    g.colour = frameScene.meshes[markBody[k]].ramp.high;
-                    g.strength = markValues[k];
-                    frameScene.groundMarks.push_back(g);
-                }
-        }
+        const FrameScene& frameScene = view.update(viewBodies, camera);
         Image image = renderer.render(frameScene, camera);
         const std::string path = framePath(scene.output.dir, scene.name, frame);
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},

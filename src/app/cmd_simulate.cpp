@@ -4,7 +4,7 @@
 #include "app/commands.hpp"
 #include "app/dynamics_run.hpp"
 #include "app/resume.hpp"
-#include "app/scene_build.hpp"
+#include "io/scene_build.hpp"
 #include "base/errors.hpp"
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"

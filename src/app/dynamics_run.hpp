@@ -3,9 +3,9 @@
 // scene's built objects, advanced frame by frame, with out/<scene>/stats.csv rewritten (atomically)
 // after every frame and, when the scene asks for them, the frame's VDB and mesh caches.
 
-#include "app/scene_build.hpp"
+#include "io/scene_build.hpp"
 #include "io/mesh_cache.hpp"
-#include "sim/contact_highlight.hpp"
+#include "view/contact_highlight.hpp"
 #include "sim/simulation.hpp"
 
 #include <cstdint>

@@ -34,7 +34,7 @@ struct VoxeliseSettings {
     /// memoryBudgetBytes() (the smallest of 3/4 of physical memory and the process's limits).
     std::size_t memoryBudgetBytes = 0;
     /// What is kept per material point: the lattice and its geometric state (1 KiB), or more
-    /// for a body that is simulated (app/scene_build: buildObjects).
+    /// for a body that is simulated (io/scene_build: buildObjects).
     double bytesPerPoint = kLatticeBytesPerPoint;
 
     /// Problems by field name ("voxel_size: must be positive, got -1"); empty when valid.

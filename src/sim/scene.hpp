@@ -84,7 +84,7 @@ struct PinDesc {
     Real radius = 0;                              ///< ball
     std::string group;                            ///< group: the mesh or node name in the object's mesh file
     /// group: its vertices at rest (world units, the object's transform applied), read by the
-    /// app before the simulation is built (app/scene_build resolvePinGroups)
+    /// app before the simulation is built (io/scene_build resolvePinGroups)
     std::vector<Vec3> groupVertices;
     bool contains(const Vec3& x) const;
 };

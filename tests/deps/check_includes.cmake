@@ -11,8 +11,10 @@ set(allowed_collide  "base;geom;deform;collide")
 set(allowed_sim      "base;geom;solve;deform;dynamics;collide;sim")
 set(allowed_io       "base;geom;solve;deform;dynamics;collide;sim;io")
 set(allowed_render   "base;geom;render")
-set(allowed_app      "base;geom;solve;deform;dynamics;collide;sim;io;render;app")
-set(core_modules "base;geom;solve;deform;dynamics;collide;sim;io;render;app")
+set(allowed_view     "base;geom;solve;deform;dynamics;collide;sim;render;view")
+set(allowed_bench    "base;geom;solve;deform;dynamics;collide;sim;io;render;view;bench")
+set(allowed_app      "base;geom;solve;deform;dynamics;collide;sim;io;render;view;bench;app")
+set(core_modules "base;geom;solve;deform;dynamics;collide;sim;io;render;view;bench;app")
 # Third-party headers that may never appear in a dgv header (H7). Eigen and TBB are the
 # vocabulary of base/ and allowed everywhere.
 set(forbidden_in_headers "assimp/;openvdb/;png.h;GL/;EGL/;nlohmann/;CLI/")

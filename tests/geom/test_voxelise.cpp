@@ -266,7 +266,7 @@ TEST_CASE("voxelise: a simulated body's bytes per point are budgeted, and the re
     VoxeliseSettings s = atResolution(64);
     s.memoryBudgetBytes = std::size_t(256) << 20;
     CHECK_NOTHROW(voxelise(m, s));  // ~140k points at 1 KiB
-    s.bytesPerPoint = 7 * 1024;     // what `dgv simulate` keeps a point (app/scene_build.hpp)
+    s.bytesPerPoint = 7 * 1024;     // what `dgv simulate` keeps a point (io/scene_build.hpp)
     int fits = 0;
     try {
         voxelise(m, s);

@@ -1,4 +1,4 @@
-// Contact highlighting from the simulation's contact set R (sim/contact_highlight.hpp, scene key
+// Contact highlighting from the simulation's contact set R (view/contact_highlight.hpp, scene key
 // render.contact) and the overlays (lines and dots, FrameScene::lines / points).
 
 #include "render/renderer.hpp"
@@ -8,9 +8,9 @@
 #include "geom/primitives.hpp"
 #include "geom/voxelise.hpp"
 #include "io/png.hpp"
-#include "sim/contact_highlight.hpp"
-#include "sim/gln_overlay.hpp"
-#include "sim/lattice_overlay.hpp"
+#include "view/contact_highlight.hpp"
+#include "view/gln_overlay.hpp"
+#include "view/lattice_overlay.hpp"
 #include "io/scene_json.hpp"
 #include "collide/gln_network.hpp"
 #include "geom/lattice.hpp"

@@ -1,5 +1,5 @@
 // `dgv bench geometry`: the geometric state (eqs 1-8) of a 128^3 box lattice (64^3 quick).
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "geom/geometric_state.hpp"
 #include "geom/lattice.hpp"

@@ -1,7 +1,7 @@
 // dgv bench voxelise: voxel parametrisation of a ~100k-triangle closed torus at resolution 128
 // (10k triangles with --quick). Target: under 2 s on two cores (docs/benchmarks.md).
 
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 #include "geom/primitives.hpp"
 #include "geom/voxelise.hpp"
 

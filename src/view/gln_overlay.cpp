@@ -1,4 +1,4 @@
-#include "sim/gln_overlay.hpp"
+#include "view/gln_overlay.hpp"
 
 namespace dgv {
 

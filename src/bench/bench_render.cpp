@@ -4,7 +4,7 @@
 // each pass finished before the next) and the end-to-end rate of a sequence, PNG encoding
 // overlapped with the next draw as in `dgv render` (llvmpipe timings vary with machine load; see
 // docs/rendering.md).
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "io/png.hpp"
 #include "render/renderer.hpp"

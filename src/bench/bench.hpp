@@ -1,6 +1,6 @@
 #pragma once
 // Benchmarks of `dgv bench <name>`: each prints "name: value unit" lines to `out`.
-// One file per benchmark: app/bench_<name>.cpp.
+// One file per benchmark: bench/bench_<name>.cpp.
 
 #include "dynamics/forces.hpp"
 #include "geom/lattice.hpp"

@@ -1,4 +1,4 @@
-#include "sim/lattice_overlay.hpp"
+#include "view/lattice_overlay.hpp"
 
 namespace dgv {
 

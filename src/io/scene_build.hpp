@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace dgv::app {
+namespace dgv {
 
 struct BuiltObject {
     std::string name;
@@ -66,4 +66,4 @@ std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb);
 /// One line describing a built object, for logs.
 std::string describe(const BuiltObject& object);
 
-}  // namespace dgv::app
+}  // namespace dgv

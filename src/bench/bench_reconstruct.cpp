@@ -9,7 +9,7 @@
 //     solver, at N = 1e3, 1e4, 1e5 points (1e3 only with --quick), each run capped at
 //     `kCapSeconds`; and the fitted growth of the iteration counts with N and with the points
 //     per side n = N^(1/3). Table: docs/solvers.md.
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "geom/geometric_state.hpp"
 #include "geom/lattice.hpp"

@@ -7,7 +7,7 @@
 // Targets (docs/benchmarks.md, "gln"): direct kernel >= 1.8e8 pairs/s on 2 cores; 100k + 100k certified in
 // under 1 s; 1M + 1M in under 10 s. --quick: 1k-vertex direct tiles, 10k + 10k, no 1M run.
 
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "collide/gln_exact.hpp"
 #include "collide/gln_farfield.hpp"

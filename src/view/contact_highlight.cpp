@@ -1,4 +1,4 @@
-#include "sim/contact_highlight.hpp"
+#include "view/contact_highlight.hpp"
 
 #include "base/image.hpp"
 #include "base/parallel.hpp"

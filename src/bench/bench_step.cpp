@@ -6,7 +6,7 @@
 // multigrid and the warm starts settle), then `repeats` timed steps (their minimum and median,
 // with the stages of the fastest), and the mean step over a run of 24 (the repeats and more).
 // Table: docs/benchmarks.md.
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "dynamics/stepper.hpp"
 #include "geom/lattice.hpp"

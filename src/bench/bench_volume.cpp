@@ -11,7 +11,7 @@
 // Printed: Gauss-Newton and conjugate-gradient iterations, seconds (min and median over the
 // repeats), max cell error before and after, max point move; and the fitted growth of the
 // seconds with the number of cells. Table: docs/benchmarks.md.
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "deform/volume.hpp"
 #include "geom/lattice.hpp"

@@ -1,4 +1,4 @@
-#include "app/scene_build.hpp"
+#include "io/scene_build.hpp"
 
 #include "base/errors.hpp"
 #include "base/progress.hpp"
@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 
-namespace dgv::app {
+namespace dgv {
 
 TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, int index) {
     const std::string where = "objects[" + std::to_string(index) + "]";
@@ -174,4 +174,4 @@ std::string describe(const BuiltObject& o) {
     return buf;
 }
 
-}  // namespace dgv::app
+}  // namespace dgv

@@ -1,5 +1,5 @@
 // Helpers shared by the benchmarks.
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include <algorithm>
 #include <cmath>

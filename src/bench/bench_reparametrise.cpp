@@ -6,7 +6,7 @@
 // its surface from the volume (the lattice's outer faces as an OpenVDB level set, meshed,
 // smoothed and embedded, as sim/simulation does). Minimum over the repeats; the steps' mean.
 // Table: docs/benchmarks.md.
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "dynamics/reparametrise.hpp"
 #include "dynamics/stepper.hpp"

@@ -5,7 +5,7 @@
 // the stages of the fastest repeat), the (voxel, cell) pairs solved,
 // the file size per frame, the active voxels and the peak RSS. The frames go to a temporary
 // folder that is removed afterwards.
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
 #include "deform/volume.hpp"
 #include "geom/lattice.hpp"

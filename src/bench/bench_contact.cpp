@@ -16,9 +16,9 @@
 //    with N show.
 // The figures are the simulation's own substep times (FrameStats::stepMs), from 4 substeps
 // (adaptive). Table: docs/benchmarks.md.
-#include "app/bench.hpp"
+#include "bench/bench.hpp"
 
-#include "app/scene_build.hpp"
+#include "io/scene_build.hpp"
 #include "io/scene_json.hpp"
 #include "sim/simulation.hpp"
 
@@ -85,10 +85,10 @@ std::string pileScene(int n, Real r, int resolution, bool objects) {
 // then times up to `most` frames; with `whileTouching`, stops at the first frame without contact.
 Timing run(const std::string& text, int& first, int most, bool whileTouching) {
     SceneDesc scene = parseScene(text, "bench_contact.json");
-    std::vector<app::BuiltObject> objects;
-    for (int i = 0; i < static_cast<int>(scene.objects.size()); ++i) objects.push_back(app::buildObject(scene, i));
+    std::vector<BuiltObject> objects;
+    for (int i = 0; i < static_cast<int>(scene.objects.size()); ++i) objects.push_back(buildObject(scene, i));
     std::vector<const Lattice*> lattices;
-    for (const app::BuiltObject& o : objects) lattices.push_back(&o.lattice);
+    for (const BuiltObject& o : objects) lattices.push_back(&o.lattice);
     Simulation sim(scene, lattices);
     int frame = 1;  // the last frame simulated
     Timing t;
