@@ -19,7 +19,7 @@
 ///
 /// Time. A field is evaluated at a scene frame (fractional between frames for substeps): every
 /// term's strength is a Keyframes curve, linear between keys and held outside them, exactly the
-/// scene file's `strength` (sim/scene.hpp Keyframed). Everything else about a term is fixed.
+/// scene file's `strength` (io/scene_json). Everything else about a term is fixed.
 ///
 /// Determinism. Evaluation is a pure function of (term parameters, seed, point, frame); the bulk
 /// evaluation writes per point, so it is bit-identical for any thread count.
@@ -35,8 +35,8 @@
 namespace dgv {
 
 /// A scalar keyed over scene frames: linear interpolation between keys, held constant outside
-/// them; zero when there are no keys. Same rule as sim/scene.hpp's Keyframed (dynamics cannot
-/// include sim; sim/forces_from_scene copies the keys).
+/// them; zero when there are no keys. The scene file's `strength` is read into it directly
+/// (io/scene_json: one key, or [frame, value] pairs with increasing frames).
 struct Keyframes {
     std::vector<std::pair<Real, Real>> keys;  ///< (frame, value), frames strictly increasing
 

@@ -264,8 +264,8 @@ TransformDesc readTransform(ObjectReader& r) {
     return t;
 }
 
-Keyframed readKeyframed(ObjectReader& r, const std::string& key, Real def) {
-    Keyframed k;
+Keyframes readKeyframes(ObjectReader& r, const std::string& key, Real def) {
+    Keyframes k;
     const Json* v = r.get(key);
     if (!v) {
         k.keys.push_back({1, def});
@@ -540,41 +540,41 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                                  "duplicate object name \"" + s.objects[i].name + "\"");
 
     r.array("forces", [&](ObjectReader& f, int) {
-        ForceDesc d;
+        ForceTerm d;
         std::string type = f.choice("type", "", {"gravity", "attractor", "vortex", "burst", "wind", "torsion"});
         if (type == "gravity") {
-            d.type = ForceType::Gravity;
+            d.kind = ForceKind::Gravity;
             d.direction = f.direction("direction", d.direction);
-            d.strength = readKeyframed(f, "strength", 9.81);
+            d.strength = readKeyframes(f, "strength", 9.81);
         } else if (type == "attractor") {
-            d.type = ForceType::Attractor;
-            d.position = f.vec3("position", d.position);
+            d.kind = ForceKind::Attractor;
+            d.centre = f.vec3("position", d.centre);
             d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
             d.softening = f.number("softening", 0.25 * d.radius, 0, HUGE_VAL, true);
             d.falloff = f.number("falloff", 2, 0, 4);
-            d.strength = readKeyframed(f, "strength", 1);
+            d.strength = readKeyframes(f, "strength", 1);
         } else if (type == "vortex") {
-            d.type = ForceType::Vortex;
-            d.position = f.vec3("position", d.position);
+            d.kind = ForceKind::Vortex;
+            d.centre = f.vec3("position", d.centre);
             d.axis = f.direction("axis", d.axis);
             d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
             d.falloff = f.number("falloff", 1, 0, 4);
-            d.strength = readKeyframed(f, "strength", 1);
+            d.strength = readKeyframes(f, "strength", 1);
         } else if (type == "torsion") {
-            d.type = ForceType::Torsion;
-            d.position = f.vec3("position", d.position);
+            d.kind = ForceKind::Torsion;
+            d.centre = f.vec3("position", d.centre);
             d.axis = f.direction("axis", d.axis);
             d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
-            d.strength = readKeyframed(f, "strength", 1);
+            d.strength = readKeyframes(f, "strength", 1);
         } else if (type == "burst") {
-            d.type = ForceType::Burst;
-            d.position = f.vec3("position", d.position);
+            d.kind = ForceKind::Burst;
+            d.centre = f.vec3("position", d.centre);
             d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
-            d.strength = readKeyframed(f, "strength", 1);
+            d.strength = readKeyframes(f, "strength", 1);
         } else {
-            d.type = ForceType::Wind;
+            d.kind = ForceKind::Wind;
             d.direction = f.direction("direction", Vec3::UnitX());
-            d.strength = readKeyframed(f, "strength", 1);
+            d.strength = readKeyframes(f, "strength", 1);
             d.turbulence = f.number("turbulence", 0, 0, HUGE_VAL);
             d.scale = f.number("scale", 1, 0, HUGE_VAL, true);
             d.seed = static_cast<unsigned>(f.integer("seed", 1, 0, 1 << 30));

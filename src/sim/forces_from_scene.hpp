@@ -1,22 +1,20 @@
 #pragma once
 /// @file forces_from_scene.hpp
-/// @brief The scene's forces (sim/scene.hpp ForceDesc, validated by io/scene_json) as the
-/// dynamics' time-dependent force field (dynamics/forces.hpp).
+/// @brief The scene's forces (SceneDesc::forces, the field's terms as io/scene_json reads them)
+/// as the dynamics' time-dependent force field (dynamics/forces.hpp), with the scene's JSON
+/// paths in its errors.
 
 #include "dynamics/forces.hpp"
-#include "sim/scene.hpp"
 
+#include <string>
 #include <vector>
 
 namespace dgv {
 
-/// One scene force as a force term: `position` becomes the centre, the strength keys are copied
-/// (same interpolation rule), every other setting maps one to one.
-ForceTerm forceTermFromScene(const ForceDesc& desc);
-
 /// The sum of the scene's forces, evaluated at scene frames. An empty list gives an empty field
-/// (F = 0). A force the parser let through but the field rejects throws InputError naming
-/// `forces[i].<field>` (a bug in the parser's validation, reported as bad input).
-ForceField forceFieldFromScene(const std::vector<ForceDesc>& forces, const std::string& sceneFile = "");
+/// (F = 0). A term the parser let through but the field rejects throws InputError naming
+/// `forces[i].<key>` as the scene file spells it (`centre` is the file's `position`): a bug in
+/// the parser's validation, reported as bad input.
+ForceField forceFieldFromScene(const std::vector<ForceTerm>& forces, const std::string& sceneFile = "");
 
 }  // namespace dgv

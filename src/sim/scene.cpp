@@ -15,21 +15,6 @@ Mat3 TransformDesc::linear() const {
     return r * scale.asDiagonal();
 }
 
-Real Keyframed::at(Real frame) const {
-    if (keys.empty()) return 0;
-    if (frame <= keys.front().first) return keys.front().second;
-    if (frame >= keys.back().first) return keys.back().second;
-    for (std::size_t i = 1; i < keys.size(); ++i) {
-        if (frame <= keys[i].first) {
-            const auto& [f0, v0] = keys[i - 1];
-            const auto& [f1, v1] = keys[i];
-            Real t = (frame - f0) / (f1 - f0);
-            return v0 + t * (v1 - v0);
-        }
-    }
-    return keys.back().second;
-}
-
 Vec3 CurveDesc::offsetAt(Real frame) const {
     if (motion.empty()) return Vec3::Zero();
     if (frame <= motion.front().first) return motion.front().second;

@@ -5,6 +5,7 @@
 /// the pipeline stages read them. World units are metres, right-handed, Y up.
 
 #include "base/types.hpp"
+#include "dynamics/forces.hpp"
 #include "geom/sdf_grid.hpp"
 #include "geom/triangle_mesh.hpp"
 #include "geom/voxelise.hpp"
@@ -103,29 +104,6 @@ struct ObjectDesc {
     Vec3 velocity = Vec3::Zero();     ///< initial velocity of the centre, m/s
     Vec3 spinDegrees = Vec3::Zero();  ///< initial angular velocity, degrees/s (rigid spin)
     PinDesc pin;
-};
-
-/// A scalar keyframed over frames: linear interpolation, held constant outside the keys.
-struct Keyframed {
-    std::vector<std::pair<Real, Real>> keys;  ///< (frame, value), frames increasing
-    Real at(Real frame) const;
-};
-
-enum class ForceType { Gravity, Attractor, Vortex, Burst, Wind, Torsion };
-
-struct ForceDesc {
-    ForceType type = ForceType::Gravity;
-    Keyframed strength;               ///< m/s^2 (gravity, wind) or field scale
-    Vec3 direction = Vec3(0, -1, 0);  ///< gravity, wind (unit)
-    Vec3 position = Vec3::Zero();     ///< attractor, burst centre; vortex axis point
-    Vec3 axis = Vec3::UnitY();        ///< vortex (unit)
-    Real radius = 1.0;                ///< falloff radius (attractor, vortex, burst)
-    Real softening = 0.25;            ///< attractor: softening radius, > 0 (default radius/4)
-    Real falloff = 2;                 ///< attractor: 1/r^falloff (2); vortex: (1); in [0, 4]
-    Real turbulence = 0.0;            ///< wind: curl-noise amplitude relative to strength
-    Real scale = 1.0;                 ///< wind: noise feature size
-    unsigned seed = 1;                ///< wind: noise seed
-    int modes = 32;                   ///< wind: Fourier modes of the noise (cost ∝ modes)
 };
 
 enum class ColliderType { Ground, Sphere, Mesh, LevelSet };
@@ -282,7 +260,8 @@ struct SceneDesc {
     int maxSubsteps = 16;
     Real cfl = 1;
     std::vector<ObjectDesc> objects;
-    std::vector<ForceDesc> forces;
+    std::vector<ForceTerm>
+        forces;  ///< the field's terms as the file gives them (io/scene_json); the field: sim/forces_from_scene
     std::vector<ColliderDesc> colliders;
     CollisionDesc collision;
     std::vector<CurveDesc> curves;  ///< closed curves (GLN figures); a scene has objects or curves

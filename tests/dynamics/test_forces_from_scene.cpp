@@ -1,6 +1,6 @@
-// Tests of the scene → force field converter (src/sim/forces_from_scene.hpp): every scene force
-// type and key reaches the field, keyframed strength follows the scene's Keyframed, and the
-// field of a scene equals the sum of its terms.
+// Tests of the scene's forces as the field (src/sim/forces_from_scene.hpp): every scene force
+// type and key reaches the field's terms, keyframed strength interpolates the file's keys, and
+// the field of a scene equals the sum of its terms.
 #include <catch2/catch.hpp>
 
 #include "base/errors.hpp"
@@ -51,10 +51,21 @@ TEST_CASE("forces_from_scene: every key of every force type reaches the field", 
     CHECK(t[4].seed == 12u);
     CHECK(t[4].modes == 20);
 
-    // Strength: the scene's keyframes, at integer and fractional (substep) frames.
-    for (std::size_t i = 0; i < s.forces.size(); ++i)
-        for (Real frame : {0.0, 1.0, 3.25, 10.0, 10.5, 11.0, 12.75, 14.0, 100.0})
-            CHECK(t[i].strength.at(frame) == s.forces[i].strength.at(frame));
+    // Strength: the file's keys, linear between them and held outside, at integer and
+    // fractional (substep) frames; a single number is constant.
+    for (Real frame : {0.0, 1.0, 3.25, 10.0, 10.5, 11.0, 12.75, 14.0, 100.0}) {
+        CHECK(t[0].strength.at(frame) == 4);
+        CHECK(t[2].strength.at(frame) == 3);
+        CHECK(t[4].strength.at(frame) == 2);
+    }
+    CHECK(t[1].strength.at(0) == 0);
+    CHECK(t[1].strength.at(3.25) == Approx(-1.125).epsilon(1e-15));
+    CHECK(t[1].strength.at(11) == -5);
+    CHECK(t[1].strength.at(100) == -5);
+    CHECK(t[3].strength.at(9) == 0);
+    CHECK(t[3].strength.at(10.5) == Approx(20).epsilon(1e-15));
+    CHECK(t[3].strength.at(12.5) == Approx(20).epsilon(1e-15));
+    CHECK(t[3].strength.at(14) == 0);
 
     // The defaults the parser fills in: softening = radius/4, attractor falloff 2, vortex 1.
     const SceneDesc d = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}],
@@ -73,9 +84,9 @@ TEST_CASE("forces_from_scene: the scene's field is the sum of its forces at ever
     for (Real frame : {1.0, 6.0, 10.5, 12.0}) {
         Vec3 sum = Vec3::Zero();
         Mat3 grad = Mat3::Zero();
-        for (const ForceDesc& d : s.forces) {
+        for (const ForceTerm& d : s.forces) {
             ForceField one;
-            one.add(forceTermFromScene(d));
+            one.add(d);
             const ForceSample v = one.sample(x, frame);
             sum += v.value;
             grad += v.gradient;
@@ -86,7 +97,7 @@ TEST_CASE("forces_from_scene: the scene's field is the sum of its forces at ever
     }
     // The burst fires between frames 10 and 14 only.
     ForceField burst;
-    burst.add(forceTermFromScene(s.forces[3]));
+    burst.add(s.forces[3]);
     CHECK(burst.value(x, 9).norm() == 0);
     CHECK(burst.value(x, 11).norm() > 1);
     CHECK(burst.value(x, 15).norm() == 0);
@@ -95,12 +106,11 @@ TEST_CASE("forces_from_scene: the scene's field is the sum of its forces at ever
 
 TEST_CASE("forces_from_scene: a force the parser did not validate is reported by scene path",
           "[dynamics][forces][scene]") {
-    ForceDesc d;
-    d.type = ForceType::Attractor;
-    d.strength.keys = {{1, 1}};
+    ForceTerm d;
+    d.kind = ForceKind::Attractor;
     d.softening = 0;
     try {
-        forceFieldFromScene({ForceDesc{}, d}, "a.json");
+        forceFieldFromScene({ForceTerm{}, d}, "a.json");
         FAIL("no error");
     } catch (const InputError& e) {
         CHECK(std::string(e.what()) == "a.json: forces[1].softening: expected a positive number, got 0");
