@@ -139,6 +139,20 @@ public:
             fail(key, "expected one of " + join(options) + ", got " + describe(*v));
         return s;
     }
+    /// choice() onto an enum: `names` in the order the error lists them, `def` among them.
+    template <typename E>
+    E choiceOf(const std::string& key, E def, const std::vector<std::pair<std::string, E>>& names) {
+        std::vector<std::string> options;
+        std::string defName;
+        for (const auto& [name, value] : names) {
+            options.push_back(name);
+            if (value == def) defName = name;
+        }
+        const std::string s = choice(key, defName, options);
+        for (const auto& [name, value] : names)
+            if (name == s) return value;
+        return def;  // not reached: choice() refused anything else
+    }
     Vec3 vec3(const std::string& key, const Vec3& def, Real lo = -HUGE_VAL, Real hi = HUGE_VAL) {
         const Json* v = get(key);
         if (!v) return def;
@@ -704,7 +718,10 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);
         if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
         g.object("contact", [&](ObjectReader& c) {
-            d.contactMode = c.choice("mode", "depth", {"off", "depth", "recent"});
+            d.contactMode = c.choiceOf("mode", ContactHighlightMode::Depth,
+                                       {{"off", ContactHighlightMode::Off},
+                                        {"depth", ContactHighlightMode::Depth},
+                                        {"recent", ContactHighlightMode::Recent}});
             d.contactDepthMax = c.number("depth_max", 0, 0, HUGE_VAL);
             d.contactFadeFrames = c.integer("fade_frames", d.contactFadeFrames, 1, 100000);
             d.contactLowSet = c.has("low");
@@ -732,11 +749,14 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         }
         g.object("overlays", [&](ObjectReader& o) {
             d.overlayLattice = o.boolean("lattice", d.overlayLattice);
-            d.overlayLatticeSet = o.choice("lattice_set", d.overlayLatticeSet, {"boundary", "all"});
+            d.overlayLatticeSet = o.choiceOf("lattice_set", d.overlayLatticeSet,
+                                             {{"boundary", LatticeDotSet::Boundary}, {"all", LatticeDotSet::All}});
             d.overlayLatticeColour = o.color("lattice_color", d.overlayLatticeColour);
             d.overlayPointSize = o.number("point_size", d.overlayPointSize, 1, 64);
             d.overlayGlnLoops = o.boolean("gln_loops", d.overlayGlnLoops);
-            d.overlayGlnLoopSet = o.choice("gln_loop_set", d.overlayGlnLoopSet, {"contact", "all", "coarse"});
+            d.overlayGlnLoopSet = o.choiceOf(
+                "gln_loop_set", d.overlayGlnLoopSet,
+                {{"contact", GlnLoopSet::Contact}, {"all", GlnLoopSet::All}, {"coarse", GlnLoopSet::Coarse}});
             d.overlayGlnColour = o.color("gln_color", d.overlayGlnColour);
             d.overlayLineWidth = o.number("line_width", d.overlayLineWidth, 1, 64);
         });

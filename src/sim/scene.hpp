@@ -177,6 +177,26 @@ struct CameraDesc {
     std::vector<CameraKey> keys;
 };
 
+/// render.contact.mode: how the contact set R shows on a surface (view/contact_highlight).
+enum class ContactHighlightMode {
+    Off,
+    Depth,   ///< scalar = penetration depth before the response (world units) where in R, else 0
+    Recent,  ///< scalar = 1 − age/fade for points in R within the last `fade` frames, else 0
+};
+
+/// render.overlays.lattice_set: which lattice points the dots show (view/lattice_overlay).
+enum class LatticeDotSet {
+    Boundary,  ///< the surface layer (points missing a neighbour) on the side facing the camera
+    All,       ///< every point, interior too
+};
+
+/// render.overlays.gln_loop_set: which GLN network loops are drawn (view/gln_overlay).
+enum class GlnLoopSet {
+    Contact,  ///< the fine rings of the points in the contact set R (the rings that linked)
+    All,      ///< every fine ring (one per boundary point)
+    Coarse,   ///< every coarse ring (a cover of the boundary, 2 voxels across)
+};
+
 struct RenderDesc {
     int width = 640;
     int height = 360;
@@ -189,7 +209,7 @@ struct RenderDesc {
     Real shadowSoftness = 3;   ///< the key light's angular radius, degrees (0: hard shadows)
     Real colliderOpacity = 1;  ///< colliders drawn see-through below 1 (an x-ray view of the contact behind them)
     /// Contact highlighting (render.contact): the contact set R as a colour ramp on the surface.
-    std::string contactMode = "off";           ///< "off", "depth" (penetration) or "recent" (time since contact)
+    ContactHighlightMode contactMode = ContactHighlightMode::Off;
     Real contactDepthMax = 0;                  ///< depth at which the ramp reaches `high`; 0: the object's voxel size
     int contactFadeFrames = 12;                ///< recent: frames over which the highlight fades
     bool contactLowSet = false;                ///< whether `low` was given (recent: default the object's colour)
@@ -199,20 +219,18 @@ struct RenderDesc {
     int contactSpread = 4;                     ///< lattice steps the highlight widens over the body (0: R alone)
     bool contactFootprint = true;  ///< also mark the colliders (ground, spheres, meshes, level sets) where touched
     Real contactGlow = 0.35;       ///< the highlight's colour also emitted, times this (reads in shadow)
-    /// Overlays (render.overlays): lattice points as dots drawn over the surface, either the
-    /// "boundary" points (those missing a neighbour: the surface layer) or "all" of them.
+    /// Overlays (render.overlays): lattice points as dots drawn over the surface (LatticeDotSet).
     /// render.pins: the pinned lattice points drawn as dots (depth-tested).
     bool pins = false;
     Vec3 pinColour = Vec3(0.85, 0.05, 0.75);  ///< linear RGB
     Real pinPointSize = 5;                    ///< dot diameter, output pixels
     bool overlayLattice = false;
-    std::string overlayLatticeSet = "boundary";
+    LatticeDotSet overlayLatticeSet = LatticeDotSet::Boundary;
     Vec3 overlayLatticeColour = Vec3(0.05, 0.35, 1.0);  ///< linear RGB
     Real overlayPointSize = 3;                          ///< dot diameter, output pixels
-    /// GLN network loops (docs/gln.md) as lines: "contact" (fine rings of the points in R),
-    /// "all" (every fine ring) or "coarse" (every coarse ring).
+    /// GLN network loops (docs/gln.md) as lines (GlnLoopSet).
     bool overlayGlnLoops = false;
-    std::string overlayGlnLoopSet = "contact";
+    GlnLoopSet overlayGlnLoopSet = GlnLoopSet::Contact;
     Vec3 overlayGlnColour = Vec3(0.0331, 1.0, 0.1329);  ///< linear RGB (sRGB [0.2, 1, 0.4])
     Real overlayLineWidth = 1.5;                        ///< line width, output pixels
 };

@@ -10,18 +10,13 @@
 #include "base/types.hpp"
 #include "geom/embedding.hpp"
 #include "geom/lattice.hpp"
+#include "sim/scene.hpp"
 
 #include <array>
 #include <utility>
 #include <vector>
 
 namespace dgv {
-
-enum class ContactHighlightMode {
-    Off,
-    Depth,   ///< scalar = penetration depth before the response (world units) where in R, else 0
-    Recent,  ///< scalar = 1 − age/fade for points in R within the last `fade` frames, else 0
-};
 
 /// Per lattice point: frames since the point was last in R (0: in R this frame; kNever: not
 /// yet). Updated once per simulated frame, whether or not that frame is rendered, so a render

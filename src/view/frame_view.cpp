@@ -36,9 +36,7 @@ FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, st
         mFrame.meshes.push_back(std::move(m));
     }
     // Contact highlighting (render.contact): the contact set R as a ramp on each moving surface.
-    mContactMode = rd.contactMode == "depth"    ? ContactHighlightMode::Depth
-                   : rd.contactMode == "recent" ? ContactHighlightMode::Recent
-                                                : ContactHighlightMode::Off;
+    mContactMode = rd.contactMode;
     for (std::size_t i = 0; i < mObjects.size(); ++i) {
         ScalarRamp& ramp = mFrame.meshes[i].ramp;
         // Colours not given are chosen to stand out from the surface (an orange putty gets blue).
@@ -93,13 +91,14 @@ FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, st
         for (std::size_t i = 0; i < mObjects.size(); ++i) {
             mFrame.points[i].colour = rd.overlayLatticeColour;
             mFrame.points[i].size = rd.overlayPointSize;
-            if (rd.overlayLatticeSet == "boundary") mLatticeShown[i] = boundaryPoints(*mObjects[i].lattice);
+            if (rd.overlayLatticeSet == LatticeDotSet::Boundary)
+                mLatticeShown[i] = boundaryPoints(*mObjects[i].lattice);
         }
     }
     // GLN network loops (render.overlays.gln_loops): each object's network built here as the
     // simulation builds it (the loops depend only on the lattice), so the loops can be shown
     // whichever way the scene detects contact.
-    mLoopSet = glnLoopSetFromName(rd.overlayGlnLoopSet);
+    mLoopSet = rd.overlayGlnLoopSet;
     mLoopNetworks.resize(mObjects.size());
     if (rd.overlayGlnLoops) {
         if (mLoopSet == GlnLoopSet::Contact && scene.collision.detect != CollisionDesc::Detect::Gln)
@@ -156,7 +155,7 @@ const FrameScene& FrameView::update(const std::vector<ViewBody>& bodies, const C
         }
         if (rd.overlayLattice) {
             const std::vector<Vec3>& x = (body ? body->state() : *object.state).position;
-            mFrame.points[i].points = rd.overlayLatticeSet == "all" || !ownLattice
+            mFrame.points[i].points = rd.overlayLatticeSet == LatticeDotSet::All || !ownLattice
                                           ? x
                                           : latticeOverlayPoints(*object.lattice, x, mLatticeShown[i], &camera.eye);
         }

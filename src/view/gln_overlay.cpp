@@ -2,12 +2,6 @@
 
 namespace dgv {
 
-GlnLoopSet glnLoopSetFromName(const std::string& name) {
-    if (name == "all") return GlnLoopSet::All;
-    if (name == "coarse") return GlnLoopSet::Coarse;
-    return GlnLoopSet::Contact;
-}
-
 bool loopFacesPoint(const ClosedCurve& c, const Vec3& eye) {
     if (c.empty()) return false;
     Vec3 area = Vec3::Zero(), centroid = Vec3::Zero();

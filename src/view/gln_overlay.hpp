@@ -6,21 +6,12 @@
 
 #include "base/types.hpp"
 #include "collide/gln_network.hpp"
+#include "sim/scene.hpp"
 
 #include <string>
 #include <vector>
 
 namespace dgv {
-
-enum class GlnLoopSet {
-    Contact,  ///< the fine rings of the points in the contact set R (the rings that linked)
-    All,      ///< every fine ring (one per boundary point)
-    Coarse,   ///< every coarse ring (a cover of the boundary, 2 voxels across)
-};
-
-/// "contact", "all", "coarse" (as the scene file spells them); InputError-free: the scene parser
-/// has already checked the word, anything else is Contact.
-GlnLoopSet glnLoopSetFromName(const std::string& name);
 
 /// Whether the closed loop c faces the point `eye`: its vector area (½ Σ c_i × c_{i+1}) points
 /// towards eye from the loop's centroid. The network's rings run counter-clockwise about the

@@ -265,9 +265,6 @@ TEST_CASE("overlays: GLN loop sets follow the network's rings", "[render][overla
     REQUIRE(two.size() == 2);
     CHECK(two[0] == net.fineCurve(3, x));
     CHECK(two[1] == net.fineCurve(7, x));
-    CHECK(glnLoopSetFromName("all") == GlnLoopSet::All);
-    CHECK(glnLoopSetFromName("coarse") == GlnLoopSet::Coarse);
-    CHECK(glnLoopSetFromName("contact") == GlnLoopSet::Contact);
 }
 
 TEST_CASE("overlays: GLN loops are drawn where the camera projects them", "[render][overlay]") {
@@ -428,7 +425,7 @@ TEST_CASE("overlays: bad render.overlays settings are one-line input errors", "[
         "render": { "overlays": { "gln_loops": true, "gln_loop_set": "coarse", "gln_color": [1, 0, 0.5], "line_width": 3 } } })",
                                    dir.path() / "p.json");
     CHECK(s.render.overlayGlnLoops);
-    CHECK(s.render.overlayGlnLoopSet == "coarse");
+    CHECK(s.render.overlayGlnLoopSet == GlnLoopSet::Coarse);
     CHECK(s.render.overlayGlnColour.x() == 1.0);
     CHECK(s.render.overlayGlnColour.y() == 0.0);
     CHECK(s.render.overlayGlnColour.z() == Approx(0.21404114).epsilon(1e-6));
@@ -436,9 +433,19 @@ TEST_CASE("overlays: bad render.overlays settings are one-line input errors", "[
     const SceneDesc d =
         parseScene(R"({ "objects": [ { "primitive": { "type": "sphere" } } ] })", dir.path() / "d.json");
     CHECK_FALSE(d.render.overlayGlnLoops);
-    CHECK(d.render.overlayGlnLoopSet == "contact");
+    CHECK(d.render.overlayGlnLoopSet == GlnLoopSet::Contact);
     CHECK(d.render.overlayLineWidth == 1.5);
-    CHECK(d.render.overlayLatticeSet == "boundary");
+    CHECK(d.render.overlayLatticeSet == LatticeDotSet::Boundary);
+    CHECK(d.render.contactMode == ContactHighlightMode::Off);  // no render.contact: off
+    const SceneDesc c = parseScene(R"({ "objects": [ { "primitive": { "type": "sphere" } } ],
+        "render": { "contact": { "footprint": false }, "overlays": { "lattice_set": "all" } } })",
+                                   dir.path() / "c.json");
+    CHECK(c.render.contactMode == ContactHighlightMode::Depth);  // render.contact without a mode: depth
+    CHECK(c.render.overlayLatticeSet == LatticeDotSet::All);
+    const SceneDesc r = parseScene(R"({ "objects": [ { "primitive": { "type": "sphere" } } ],
+        "render": { "contact": { "mode": "recent" } } })",
+                                   dir.path() / "r.json");
+    CHECK(r.render.contactMode == ContactHighlightMode::Recent);
 }
 
 // The lattice dots' facing test on a 5x5x5 block seen from far along +x: exactly the i = 4

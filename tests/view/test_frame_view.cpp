@@ -68,7 +68,7 @@ TEST_CASE("view: a ball landing on the ground is highlighted where it touches an
     history.observe(body.contact());
 
     SceneDesc scene = groundScene();
-    scene.render.contactMode = "depth";
+    scene.render.contactMode = ContactHighlightMode::Depth;
     FrameView view(scene, {ball.object()}, {});
     const Camera camera;
     const FrameScene& frame = view.update({{&body, &ball.mesh, &ball.emb, &history.age()}}, camera);
@@ -104,7 +104,7 @@ TEST_CASE("view: a ball landing on the ground is highlighted where it touches an
         CHECK(mark.colour == m.ramp.high);
     }
     // Off: neither.
-    scene.render.contactMode = "off";
+    scene.render.contactMode = ContactHighlightMode::Off;
     FrameView plain(scene, {ball.object()}, {});
     const FrameScene& off = plain.update({{&body, &ball.mesh, &ball.emb, &history.age()}}, camera);
     CHECK(off.groundMarks.empty());
@@ -116,7 +116,7 @@ TEST_CASE("view: objects, then colliders framed with them, then lattice dots and
     SceneDesc scene = groundScene();
     scene.render.colliderOpacity = 0.5;
     scene.render.overlayLattice = true;
-    scene.render.overlayLatticeSet = "all";
+    scene.render.overlayLatticeSet = LatticeDotSet::All;
     scene.render.pins = true;
     DrawMesh collider;
     collider.positions = {Vec3(2, 0, 0), Vec3(3, 0, 0), Vec3(2, 1, 0)};
