@@ -2,9 +2,10 @@
 # The dynamics stress suite (scenes/stress/README.md): runs every scene of scenes/stress/ with
 # `dgv simulate` and judges it against the volume goals. Not part of ctest.
 #
-#   scripts/stress.sh [--big] [--dgv PATH] [--jobs N] [--out DIR] [--timeout S] [--keep] [PATTERN...]
+#   scripts/stress.sh [--big] [--scenes DIR] [--dgv PATH] [--jobs N] [--out DIR] [--timeout S] [--keep] [PATTERN...]
 #
 #   --big        also run the big scenes of scenes/stress/big/ (137k points; minutes each)
+#   --scenes DIR the scenes of DIR/*.json instead (scripts/models.sh writes its scenes there)
 #   --dgv PATH   the dgv binary (default: $DGV, else build/dgv)
 #   --jobs N     scenes run at once (default 1); each run is `dgv --threads 1`
 #   --out DIR    output folder (default out/stress): DIR/<name>/stats.csv, DIR/logs/<name>.log,
@@ -36,13 +37,15 @@ BIG=0
 KEEP=0
 PATTERNS=()
 
-usage() { sed -n '2,25p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,26p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 die() { echo "stress: $*" >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
     case $1 in
         --big) BIG=1 ;;
         --keep) KEEP=1 ;;
+        --scenes) [ $# -ge 2 ] || die "--scenes needs a folder"; SCENES=$2; shift ;;
+        --scenes=*) SCENES=${1#*=} ;;
         --dgv) [ $# -ge 2 ] || die "--dgv needs a path"; DGV=$2; shift ;;
         --dgv=*) DGV=${1#*=} ;;
         --jobs|-j) [ $# -ge 2 ] || die "--jobs needs a number"; JOBS=$2; shift ;;
@@ -61,6 +64,7 @@ done
 [[ $JOBS =~ ^[1-9][0-9]*$ ]] || die "--jobs: expected a positive integer, got '$JOBS'"
 [[ $TIMEOUT =~ ^[0-9]+$ ]] || die "--timeout: expected whole seconds, got '$TIMEOUT'"
 [ -x "$DGV" ] || die "no dgv binary at '$DGV' (build it, or give --dgv PATH)"
+[ -d "$SCENES" ] || die "--scenes: no folder '$SCENES'"
 case $DGV in /*) ;; *) DGV=$PWD/$DGV ;; esac
 
 # The scenes, in name order (big ones after the others).
