@@ -1,0 +1,18 @@
+#pragma once
+// The preview movie of a render (dgv render --movie): <out>/<name>.mp4, H.264, made by ffmpeg from
+// the frames <out>/<name>.####.png of `first`..`last`.
+
+#include "sim/scene.hpp"
+
+#include <string>
+
+namespace dgv::app {
+
+/// Makes the movie through a temporary in the output folder, renamed when ffmpeg succeeded, said
+/// nothing at -loglevel error, wrote a non-empty file and (with ffprobe on PATH) a movie that
+/// decodes to every frame; otherwise removes the temporary and throws RuntimeError naming the
+/// movie and the problem ("the frames are complete"). SIGINT/SIGTERM while ffmpeg runs: no movie,
+/// RuntimeError "interrupted". Returns the movie's path. ffmpeg must be on PATH.
+std::string writePreviewMovie(const SceneDesc& scene, int first, int last);
+
+}  // namespace dgv::app
