@@ -18,7 +18,6 @@
 #include "render/renderer.hpp"
 #include "view/frame_view.hpp"
 
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
