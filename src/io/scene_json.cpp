@@ -369,13 +369,13 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     s.maxSubsteps = r.integer("max_substeps", std::max(16, s.substeps), s.substeps, 1000);
     s.cfl = r.number("cfl", 1, 0, 100, true);
     r.object("collision", [&](ObjectReader& c) {
-        const std::string detect = c.choice("detect", "sdf", {"sdf", "gln"});
-        s.collision.detect = detect == "gln" ? CollisionDesc::Detect::Gln : CollisionDesc::Detect::Sdf;
+        s.collision.detect = c.choiceOf("detect", CollisionDesc::Detect::Sdf,
+                                        {{"sdf", CollisionDesc::Detect::Sdf}, {"gln", CollisionDesc::Detect::Gln}});
         s.collision.coarseToFine = c.boolean("coarse_to_fine", false);
         s.collision.objects = c.boolean("objects", s.collision.objects);
-        s.collision.distance = c.choice("distance", "exact", {"exact", "grid"}) == "exact"
-                                   ? CollisionDesc::Distance::Exact
-                                   : CollisionDesc::Distance::Grid;
+        s.collision.distance =
+            c.choiceOf("distance", CollisionDesc::Distance::Exact,
+                       {{"exact", CollisionDesc::Distance::Exact}, {"grid", CollisionDesc::Distance::Grid}});
         s.collision.friction = c.number("friction", s.collision.friction, 0, 1);
         s.collision.restitution = c.number("restitution", s.collision.restitution, 0, 1);
     });

@@ -12,6 +12,15 @@
 
 namespace dgv {
 
+namespace {
+
+/// Passes of smoothVertexScalar over a body's highlight: enough to round off the lattice's
+/// steps on the shipped scenes' meshes (2-4 triangles a voxel), not so many that it blurs the
+/// patch (each pass reaches one triangle further).
+constexpr int kHighlightSmoothing = 4;
+
+}  // namespace
+
 FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, std::vector<DrawMesh> colliders)
     : mRender(scene.render), mObjects(std::move(objects)) {
     const RenderDesc& rd = mRender;
@@ -36,14 +45,13 @@ FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, st
         mFrame.meshes.push_back(std::move(m));
     }
     // Contact highlighting (render.contact): the contact set R as a ramp on each moving surface.
-    mContactMode = rd.contactMode;
     for (std::size_t i = 0; i < mObjects.size(); ++i) {
         ScalarRamp& ramp = mFrame.meshes[i].ramp;
         // Colours not given are chosen to stand out from the surface (an orange putty gets blue).
         const HighlightColours auto_ = contrastingHighlight(mObjects[i].colour);
         ramp.high = rd.contactHighSet ? rd.contactHigh : auto_.high;
         ramp.glow = rd.contactGlow;
-        if (mContactMode == ContactHighlightMode::Recent) {
+        if (rd.contactMode == ContactHighlightMode::Recent) {
             // From `high` (in R now) back to `low`, by default the surface's own colour.
             ramp.low = rd.contactLowSet ? rd.contactLow : mObjects[i].colour;
             ramp.min = 0;
@@ -60,8 +68,7 @@ FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, st
     // touch them, from the collider's colour to the highlight's, and the ground plane takes
     // marks, so a contact under a body or on its far side still shows around it. Each body's
     // contacts show in its own highlight colour, on the body and on what it touches.
-    mFootprints = mContactMode != ContactHighlightMode::Off && rd.contactFootprint;
-    if (mFootprints)
+    if (footprints())
         for (std::size_t m = mFirstCollider; m < mFrame.meshes.size(); ++m) {
             Box3 box;
             for (const Vec3& v : mFrame.meshes[m].positions) box.extend(v);
@@ -98,10 +105,9 @@ FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, st
     // GLN network loops (render.overlays.gln_loops): each object's network built here as the
     // simulation builds it (the loops depend only on the lattice), so the loops can be shown
     // whichever way the scene detects contact.
-    mLoopSet = rd.overlayGlnLoopSet;
     mLoopNetworks.resize(mObjects.size());
     if (rd.overlayGlnLoops) {
-        if (mLoopSet == GlnLoopSet::Contact && scene.collision.detect != CollisionDesc::Detect::Gln)
+        if (rd.overlayGlnLoopSet == GlnLoopSet::Contact && scene.collision.detect != CollisionDesc::Detect::Gln)
             logInfo(
                 "render.overlays.gln_loops: collision.detect is not \"gln\", so the loops drawn are those of the "
                 "points in the signed-distance contact set");
@@ -133,18 +139,18 @@ const FrameScene& FrameView::update(const std::vector<ViewBody>& bodies, const C
         }
         deformVertices(body ? *bodies[i].embedding : *object.embedding, body ? body->state() : *object.state,
                        mesh.positions);
-        if (mContactMode != ContactHighlightMode::Off && body) {
+        if (rd.contactMode != ContactHighlightMode::Off && body) {
             std::vector<Real> pointValue =
-                contactPointScalar(mContactMode, body->contact(), body->contactDepth(), *bodies[i].contactAge,
+                contactPointScalar(rd.contactMode, body->contact(), body->contactDepth(), *bodies[i].contactAge,
                                    rd.contactFadeFrames, mesh.ramp.min);
-            if (mFootprints) {
+            if (footprints()) {
                 const std::vector<Vec3>& x = body->state().position;
                 const Real reach = body->lattice().spacing * (1 + rd.contactSpread);
                 for (std::size_t p = 0; p < pointValue.size() && p < x.size(); ++p)
                     if (pointValue[p] > 0) {
                         markPoints.push_back(x[p]);
                         // Depth: every point in R at full strength; recent: as it fades.
-                        markValues.push_back(mContactMode == ContactHighlightMode::Depth ? Real(1) : pointValue[p]);
+                        markValues.push_back(rd.contactMode == ContactHighlightMode::Depth ? Real(1) : pointValue[p]);
                         markRadii.push_back(reach);
                         markBody.push_back(i);
                     }
@@ -170,9 +176,9 @@ const FrameScene& FrameView::update(const std::vector<ViewBody>& bodies, const C
         }
         if (mLoopNetworks[i] && ownLattice) {
             static const std::vector<unsigned char> kNoContact;
-            for (ClosedCurve& loop :
-                 glnOverlayLoops(*mLoopNetworks[i], mLoopSet, (body ? body->state() : *object.state).position,
-                                 body ? body->contact() : kNoContact, &camera.eye)) {
+            for (ClosedCurve& loop : glnOverlayLoops(*mLoopNetworks[i], rd.overlayGlnLoopSet,
+                                                     (body ? body->state() : *object.state).position,
+                                                     body ? body->contact() : kNoContact, &camera.eye)) {
                 Polyline line;
                 line.points = std::move(loop);
                 line.colour = rd.overlayGlnColour;
@@ -182,7 +188,7 @@ const FrameScene& FrameView::update(const std::vector<ViewBody>& bodies, const C
             }
         }
     }
-    if (mFootprints) {
+    if (footprints()) {
         Real reach = 0;
         for (Real r : markRadii) reach = std::max(reach, r);
         for (std::size_t m = mFirstCollider; m < mFrame.meshes.size(); ++m) {

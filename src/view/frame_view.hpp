@@ -42,11 +42,6 @@ struct ViewBody {
     const std::vector<int>* contactAge = nullptr;  ///< ContactHistory::age of its points
 };
 
-/// Passes of smoothVertexScalar over a body's highlight: enough to round off the lattice's
-/// steps on the shipped scenes' meshes (2-4 triangles a voxel), not so many that it blurs the
-/// patch (each pass reaches one triangle further).
-constexpr int kHighlightSmoothing = 4;
-
 class FrameView {
 public:
     /// @param colliders the static colliders' drawn surfaces (level sets: their zero isosurface),
@@ -61,20 +56,20 @@ public:
     /// Redraws every object from `bodies` (one per object) for `camera`: positions, highlight,
     /// footprints, ground marks, dots and loops. Returns the frame to render.
     const FrameScene& update(const std::vector<ViewBody>& bodies, const Camera& camera);
-    const FrameScene& frame() const { return mFrame; }
 
 private:
-    const RenderDesc& mRender;
+    /// A highlight is drawn and render.contact.footprint is on: the colliders and ground are marked.
+    bool footprints() const { return mRender.contactMode != ContactHighlightMode::Off && mRender.contactFootprint; }
+
+    RenderDesc mRender;  ///< the scene's render settings (a copy: the view outlives no scene)
     std::vector<ViewObject> mObjects;
     FrameScene mFrame;
     Box3 mBounds;
-    std::size_t mFirstCollider = 0;  ///< mFrame.meshes: the objects', then the colliders'
-    std::size_t mFirstPinSet = 0;    ///< mFrame.points: the lattice dots', then the pins'
-    ContactHighlightMode mContactMode = ContactHighlightMode::Off;
-    bool mFootprints = false;
+    std::size_t mFirstCollider = 0;                 ///< mFrame.meshes: the objects', then the colliders'
+    std::size_t mFirstPinSet = 0;                   ///< mFrame.points: the lattice dots', then the pins'
+    bool mFootprints = false;                       ///< a highlight is drawn and render.contact.footprint is on
     std::vector<Box3> mColliderBounds;              ///< the static colliders' bounds (footprints)
     std::vector<std::vector<Index>> mLatticeShown;  ///< per object: the dots' candidate points
-    GlnLoopSet mLoopSet = GlnLoopSet::Contact;
     std::vector<std::unique_ptr<GlnNetwork>> mLoopNetworks;  ///< per object (gln_loops)
 };
 
