@@ -79,14 +79,7 @@ while IFS= read -r f; do files+=("$f"); done < <(
     find "$MODELS" -type f \( -false $(for e in obj dae ply stl off 3ds fbx gltf glb blend x lwo ac ase ms3d md2 \
         md5mesh b3d cob irrmesh nff smd xgl zgl amf 3mf ogex q3o m3d iqm sib dxf raw csm; do
         printf -- '-o -iname *.%s ' "$e"; done) \) -not -path '*/invalid/*' -not -path '*/ReferenceImages/*' | sort)
-matches() {
-    local name=$1 p
-    [ ${#PATTERNS[@]} -eq 0 ] && return 0
-    for p in "${PATTERNS[@]}"; do
-        case $p in *[\*\?\[]*) [[ $name == $p ]] && return 0 ;; *) [[ $name == *"$p"* ]] && return 0 ;; esac
-    done
-    return 1
-}
+. "$ROOT/scripts/lib/patterns.sh"  # matches NAME
 model_name() { local r=${1#"$MODELS"/}; r=${r//\//_}; r=${r//./_}; r=${r// /_}; printf '%s' "${r//[^A-Za-z0-9_-]/_}"; }
 
 # What import and voxelisation make of each file (dgv info), JOBS at a time.

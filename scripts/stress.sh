@@ -71,14 +71,7 @@ case $DGV in /*) ;; *) DGV=$PWD/$DGV ;; esac
 list=()
 for f in "$SCENES"/*.json; do [ -e "$f" ] && list+=("$f"); done
 if [ $BIG = 1 ]; then for f in "$SCENES"/big/*.json; do [ -e "$f" ] && list+=("$f"); done; fi
-matches() {
-    local name=$1 p
-    [ ${#PATTERNS[@]} -eq 0 ] && return 0
-    for p in "${PATTERNS[@]}"; do
-        case $p in *[\*\?\[]*) [[ $name == $p ]] && return 0 ;; *) [[ $name == *"$p"* ]] && return 0 ;; esac
-    done
-    return 1
-}
+. "$ROOT/scripts/lib/patterns.sh"  # matches NAME
 files=() names=()
 for f in "${list[@]}"; do
     n=$(basename "$f" .json)
