@@ -3,6 +3,9 @@
 #include "base/check.hpp"
 #include "base/parallel.hpp"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -61,7 +64,58 @@ Index nearestPoint(const Lattice& lat, const Vec3& u) {
     return best;
 }
 
+/// The far vertex's blend towards its neighbourhood fit: 0 up to kFitFrom voxels from its
+/// anchor, 1 from kFitFull, a smoothstep between.
+Real fitBlendAt(Real distance) {
+    const Real t = std::clamp((distance - kFitFrom) / (kFitFull - kFitFrom), Real(0), Real(1));
+    return t * t * (3 - 2 * t);
+}
+
+/// The moving-least-squares affine fit at lattice coordinate u over the points within kFitRadius
+/// of `anchor`, reached through the 6-neighbour network (so a fit never joins two parts across a
+/// gap). Writes the points and weights alpha_j (sum 1, sum alpha_j u_j = u); false when the
+/// points do not span 3-D.
+bool neighbourhoodFit(const Lattice& lat, Index anchor, const Vec3& u, std::vector<Index>& points,
+                      std::vector<Real>& alphas) {
+    const Vec3 ua = lat.coords[at(anchor)].cast<Real>();
+    const Real r2Max = kFitRadius * kFitRadius;
+    points.assign(1, anchor);
+    for (std::size_t head = 0; head < points.size(); ++head) {
+        for (const Index q : lat.neighbours[at(points[head])]) {
+            if (q == kNoPoint || (lat.coords[at(q)].cast<Real>() - ua).squaredNorm() > r2Max) continue;
+            if (std::find(points.begin(), points.end(), q) == points.end()) points.push_back(q);
+        }
+    }
+    std::sort(points.begin(), points.end());  // the sums below in one order whatever the walk
+    Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+    std::vector<Real> w(points.size());
+    for (std::size_t j = 0; j < points.size(); ++j) {
+        const Vec3 d = lat.coords[at(points[j])].cast<Real>() - ua;
+        const Real f = Real(1) - d.squaredNorm() / r2Max;
+        w[j] = f * f;
+        const Eigen::Vector4d b(1, d.x(), d.y(), d.z());
+        m += w[j] * b * b.transpose();
+    }
+    // A neighbourhood that is a sheet or a rod leaves the fit undetermined off it.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(m, Eigen::EigenvaluesOnly);
+    if (!(eig.eigenvalues()(0) > Real(1e-3) * eig.eigenvalues()(3))) return false;
+    const Vec3 du = u - ua;
+    const Eigen::Vector4d c = m.ldlt().solve(Eigen::Vector4d(1, du.x(), du.y(), du.z()));
+    alphas.resize(points.size());
+    for (std::size_t j = 0; j < points.size(); ++j) {
+        const Vec3 d = lat.coords[at(points[j])].cast<Real>() - ua;
+        alphas[j] = w[j] * (c(0) + c(1) * d.x() + c(2) * d.y() + c(3) * d.z());
+    }
+    return true;
+}
+
 }  // namespace
+
+Index MeshEmbedding::fittedVertices() const {
+    Index n = 0;
+    for (const Real s : fitBlend) n += s > 0 ? 1 : 0;
+    return n;
+}
 
 MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVertices) {
     DGV_CHECK_GT(lat.size(), Index(0));
@@ -71,6 +125,9 @@ MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVer
     emb.weights.resize(nv);
     emb.anchor.resize(nv);
     emb.offset.resize(nv);
+    emb.fitBlend.assign(nv, Real(0));
+    std::vector<std::vector<Index>> fitPoints(nv);
+    std::vector<std::vector<Real>> fitWeights(nv);
     const Real invH = Real(1) / lat.spacing;
     parallelFor(static_cast<Index>(nv), [&](Index vi) {
         const std::size_t v = at(vi);
@@ -117,7 +174,22 @@ MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVer
         }
         emb.anchor[v] = anchor;
         emb.offset[v] = u - lat.coords[at(anchor)].cast<Real>();
+        const Real blend = full ? Real(0) : fitBlendAt(emb.offset[v].norm());
+        if (blend > 0 && neighbourhoodFit(lat, anchor, u, fitPoints[v], fitWeights[v])) {
+            emb.fitBlend[v] = blend;
+        } else {
+            fitPoints[v].clear();
+            fitWeights[v].clear();
+        }
     });
+    emb.fitStart.assign(nv + 1, 0);
+    for (std::size_t v = 0; v < nv; ++v) emb.fitStart[v + 1] = emb.fitStart[v] + Index(fitPoints[v].size());
+    emb.fitPoint.reserve(at(emb.fitStart[nv]));
+    emb.fitWeight.reserve(at(emb.fitStart[nv]));
+    for (std::size_t v = 0; v < nv; ++v) {
+        emb.fitPoint.insert(emb.fitPoint.end(), fitPoints[v].begin(), fitPoints[v].end());
+        emb.fitWeight.insert(emb.fitWeight.end(), fitWeights[v].begin(), fitWeights[v].end());
+    }
     return emb;
 }
 
@@ -148,6 +220,14 @@ void deformVertices(const MeshEmbedding& emb, const GeometricState& state, std::
             dx += quad;
         }
         vertices[v] = state.position[q] + dx;
+        const Real s = emb.fitBlend.empty() ? Real(0) : emb.fitBlend[v];
+        if (s > 0) {
+            Vec3 fit = Vec3::Zero();
+            for (Index j = emb.fitStart[v]; j < emb.fitStart[v + 1]; ++j) {
+                fit += emb.fitWeight[at(j)] * state.position[at(emb.fitPoint[at(j)])];
+            }
+            vertices[v] += s * (fit - vertices[v]);
+        }
     });
 }
 

@@ -3,6 +3,7 @@
 #include "base/check.hpp"
 #include "base/parallel.hpp"
 
+#include <algorithm>
 #include <numeric>
 
 namespace dgv {
@@ -141,15 +142,14 @@ Lattice withoutLoosePoints(const Lattice& lat, Index* removed) {
     const Index n = lat.size();
     std::vector<unsigned char> inCell(static_cast<std::size_t>(n), 0);
     parallelFor(n, [&](Index p) { inCell[static_cast<std::size_t>(p)] = completeCellsAt(lat, p) > 0 ? 1 : 0; });
-    std::vector<unsigned char> componentHasCell(static_cast<std::size_t>(lat.components), 0);
-    for (Index p = 0; p < n; ++p)
-        if (inCell[static_cast<std::size_t>(p)])
-            componentHasCell[static_cast<std::size_t>(lat.component[static_cast<std::size_t>(p)])] = 1;
+    // A lattice with no complete cell anywhere (a one-voxel sheet or rod) is kept whole: there is
+    // nothing else to carry its mesh.
+    const bool anyCell = std::find(inCell.begin(), inCell.end(), 1) != inCell.end();
     std::vector<unsigned char> mask(lat.pointOfCell.size(), 0);
     Index dropped = 0;
     for (Index p = 0; p < n; ++p) {
         const std::size_t i = static_cast<std::size_t>(p);
-        const bool keep = inCell[i] || !componentHasCell[static_cast<std::size_t>(lat.component[i])];
+        const bool keep = inCell[i] || !anyCell;
         if (keep)
             mask[static_cast<std::size_t>(lat.linearIndex(lat.coords[i]))] = 1;
         else

@@ -57,12 +57,13 @@ std::vector<Index> boundaryPoints(const Lattice& lat);
 /// How many complete cells point p is a corner of (0..8).
 int completeCellsAt(const Lattice& lat, Index p);
 
-/// The lattice without its loose points: points that are a corner of no complete cell, in a
-/// 6-connected component that has complete cells. Such a point (a voxel ball's pole tips, a
-/// one-voxel fin on a thick body) carries no mass and no cell volume, and its frame is a one-sided
-/// or extrapolated guess; in the dynamics it was free to collapse (docs/math.md, "Loose points
-/// leave the material lattice"). Components with no complete cell at all (a one-voxel-thin sheet
-/// or rod) are kept whole. Same grid, origin and spacing; the kept points keep their order.
+/// The lattice without its loose points: points that are a corner of no complete cell. Such a
+/// point (a voxel ball's pole tips, a one-voxel fin on a thick body, a fragment of a leg the
+/// lattice resolves only in pieces) carries no mass and no cell volume, and its frame is a
+/// one-sided or extrapolated guess; in the dynamics it was free to collapse (docs/math.md,
+/// "Loose points leave the material lattice"). Only a lattice with no complete cell anywhere (a
+/// one-voxel-thin sheet or rod alone) is kept whole. Same grid, origin and spacing; the kept
+/// points keep their order.
 /// @param removed  optional out: how many points were dropped
 Lattice withoutLoosePoints(const Lattice& lat, Index* removed = nullptr);
 

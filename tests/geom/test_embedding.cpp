@@ -8,6 +8,8 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <random>
 
 using namespace dgv;
@@ -187,4 +189,85 @@ TEST_CASE("embedding: second-order anchors follow a bend better than first-order
     REQUIRE(rms[1] < 0.2 * rms[0]);
     REQUIRE(worst[1] <= worst[0]);
     REQUIRE(worst[1] < 0.05 * lat.spacing);  // well below a voxel
+}
+
+TEST_CASE("embedding: vertices far from the lattice follow their neighbourhood's fit, not one frame", "[geom]") {
+    // A leg of vertices 1-4 voxels beyond the ball (a part thinner than the lattice resolves).
+    const Lattice lat = ballLattice(0.1);
+    std::vector<Vec3> verts;
+    for (int i = 0; i <= 80; ++i) verts.push_back(Vec3(0.3, -0.2, 0.9).normalized() * (1.0 + 0.005 * i));
+    const MeshEmbedding emb = embedVertices(lat, verts);
+    Index far = 0;
+    for (std::size_t v = 0; v < verts.size(); ++v) {
+        const Real d = emb.offset[v].norm();
+        if (emb.trilinear(v)) continue;
+        // No fit within kFitFrom voxels (the anchor rule alone), all fit from kFitFull.
+        if (d <= kFitFrom) REQUIRE(emb.fitBlend[v] == 0);
+        if (d >= kFitFull) REQUIRE(emb.fitBlend[v] == 1);
+        if (emb.fitBlend[v] > 0) {
+            ++far;
+            Real sum = 0;
+            Vec3 at = Vec3::Zero();
+            for (Index j = emb.fitStart[v]; j < emb.fitStart[v + 1]; ++j) {
+                sum += emb.fitWeight[j];
+                at += emb.fitWeight[j] * lat.coords[emb.fitPoint[j]].cast<Real>();
+            }
+            REQUIRE(sum == Approx(1).epsilon(1e-12));
+            REQUIRE((at - (verts[v] - lat.originWorld) / lat.spacing).norm() < 1e-10);
+        }
+    }
+    REQUIRE(far > 40);
+    REQUIRE(emb.fittedVertices() == far);
+
+    // An affine motion with lattice-scale noise on the positions (the roughness of a goo body or
+    // a creased contact layer): the second-order rule extrapolates one point's rough frame and
+    // second derivatives over the offset, the fit averages them.
+    const std::vector<Vec3> rest = restPositions(lat);
+    Mat3 a;
+    a << 1.2, 0.3, -0.1, 0.0, 0.9, 0.2, 0.1, -0.2, 1.1;
+    const Vec3 b(0.5, -1, 2);
+    std::mt19937_64 rng(77);
+    std::uniform_real_distribution<Real> noise(-0.05, 0.05);
+    std::vector<Vec3> x(rest.size());
+    for (std::size_t p = 0; p < x.size(); ++p) {
+        x[p] = a * rest[p] + b + lat.spacing * Vec3(noise(rng), noise(rng), noise(rng));
+    }
+    GeometricState st;
+    computeGeometricState(lat, x, st);
+    MeshEmbedding frameOnly = emb;
+    std::fill(frameOnly.fitBlend.begin(), frameOnly.fitBlend.end(), Real(0));
+    std::vector<Vec3> fitted, framed;
+    deformVertices(emb, st, fitted);
+    deformVertices(frameOnly, st, framed);
+    Real eFit = 0, eFrame = 0;
+    for (std::size_t v = 0; v < verts.size(); ++v) {
+        if (emb.offset[v].norm() < kFitFull) continue;
+        const Vec3 expected = a * verts[v] + b;
+        eFit = std::max(eFit, (fitted[v] - expected).norm());
+        eFrame = std::max(eFrame, (framed[v] - expected).norm());
+    }
+    INFO("worst error past kFitFull voxels, in voxels: fit " << eFit / lat.spacing << ", frame "
+                                                             << eFrame / lat.spacing);
+    if (std::getenv("DGV_TEST_VERBOSE")) {
+        std::printf("far vertices %ld; worst error past %.1f voxels: fit %.4f, frame %.4f voxels\n", long(far),
+                    kFitFull, eFit / lat.spacing, eFrame / lat.spacing);
+    }
+    REQUIRE(eFit < 0.1 * lat.spacing);  // the noise is 0.05 voxel a component
+    REQUIRE(eFit < 0.25 * eFrame);
+}
+
+TEST_CASE("embedding: a one-voxel sheet keeps its anchors' frames (no fit spans it)", "[geom]") {
+    // A sheet one voxel thick: every neighbourhood is flat, so the fit is undetermined off it.
+    const Real h = 0.1;
+    const Vec3i dims(10, 10, 3);
+    std::vector<unsigned char> mask(static_cast<std::size_t>(dims.prod()), 0);
+    for (int j = 0; j < 10; ++j)
+        for (int i = 0; i < 10; ++i) mask[static_cast<std::size_t>(i + 10 * (j + 10 * 1))] = 1;
+    const Lattice lat = buildLattice(Vec3::Zero(), h, dims, mask);
+    const std::vector<Vec3> verts = {Vec3(0.45, 0.45, 0.1 + 0.25), Vec3(0.45, 0.45, 0.1 - 0.3)};
+    const MeshEmbedding emb = embedVertices(lat, verts);
+    for (std::size_t v = 0; v < verts.size(); ++v) {
+        REQUIRE(emb.offset[v].norm() > kFitFull);
+        REQUIRE(emb.fitBlend[v] == 0);
+    }
 }
