@@ -158,8 +158,26 @@ std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb) {
             throw InputError(scene.path, "output.vdb_voxel_size", what);
         }
     }
-    for (const BuiltObject& o : objects) logInfo(describe(o));  // after the checks: a refusal is one line
+    for (const BuiltObject& o : objects) {  // after the checks: a refusal is one line
+        logInfo(describe(o));
+        const std::string thin = unresolvedWarning(o);
+        if (!thin.empty()) logWarning(thin);
+    }
     return objects;
+}
+
+std::string unresolvedWarning(const BuiltObject& o) {
+    Index far = 0;
+    for (const Real s : o.embedding.fitBlend) far += s >= 1 ? 1 : 0;
+    const std::size_t nv = o.embedding.size();
+    if (nv == 0 || Real(far) < kUnresolvedShare * Real(nv)) return {};
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "object '%s': %lld of its %zu vertices lie %.1f voxels or more from its lattice: parts thinner than "
+                  "the lattice resolves (legs, fins, a tail) follow the material near them without dynamics of their "
+                  "own; a higher 'resolution' simulates them",
+                  o.name.c_str(), static_cast<long long>(far), nv, double(kFitFull));
+    return buf;
 }
 
 std::string describe(const BuiltObject& o) {

@@ -66,4 +66,11 @@ std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb);
 /// One line describing a built object, for logs.
 std::string describe(const BuiltObject& object);
 
+/// A share of the mesh's vertices this far from the lattice (geom/embedding: kFitFull voxels and
+/// more, carried by their neighbourhood's fit) is worth a warning: the user sees those parts move
+/// stiffly with the body.
+constexpr double kUnresolvedShare = 0.05;
+/// The warning for an object whose unresolved vertices reach kUnresolvedShare, else "".
+std::string unresolvedWarning(const BuiltObject& object);
+
 }  // namespace dgv

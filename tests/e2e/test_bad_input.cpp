@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -463,4 +464,41 @@ TEST_CASE("e2e: an output folder that is a dangling symbolic link exits 2 naming
         CHECK(r.out.empty());
         CHECK_FALSE(fs::exists(dir.path() / "missing"));
     }
+}
+
+TEST_CASE("e2e: a part thinner than the lattice resolves runs, with one warning naming the object", "[e2e][badinput]") {
+    // A cube 1 m across with a rod 0.03 m thick and 0.6 m long on one face: at resolution 16
+    // (h = 0.1) the rod has no complete cell, so its far vertices follow the cube's fit.
+    auto box = [](std::ostringstream& obj, int base, double x0, double y0, double z0, double x1, double y1, double z1) {
+        for (int c = 0; c < 8; ++c)
+            obj << "v " << (c & 1 ? x1 : x0) << ' ' << (c & 2 ? y1 : y0) << ' ' << (c & 4 ? z1 : z0) << '\n';
+        const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+        for (const auto& f : faces)
+            obj << "f " << base + f[0] << ' ' << base + f[1] << ' ' << base + f[2] << ' ' << base + f[3] << '\n';
+    };
+    std::ostringstream cube, rodded;
+    box(cube, 1, -0.5, -0.5, -0.5, 0.5, 0.5, 0.5);
+    box(rodded, 1, -0.5, -0.5, -0.5, 0.5, 0.5, 0.5);
+    box(rodded, 9, 0.5, -0.015, -0.015, 1.1, 0.015, 0.015);
+    test::TempDir dir("e2e_thin_part");
+    std::ofstream(dir.path() / "cube.obj") << cube.str();
+    std::ofstream(dir.path() / "rodded.obj") << rodded.str();
+    auto scene = [](const std::string& mesh) {
+        return R"({"frames": {"start": 1, "end": 2}, "objects": [{"name": "part", "mesh": ")" + mesh +
+               R"(", "resolution": 16, "transform": {"translate": [0, 1, 0]}}], "forces": [{"type": "gravity"}]})";
+    };
+    std::ofstream(dir.path() / "cube.json") << scene("cube.obj");
+    std::ofstream(dir.path() / "rodded.json") << scene("rodded.obj");
+    const Run thin = runDgvIn(dir.path(), "-q simulate rodded.json --out o_rodded");
+    INFO("stderr: " << thin.err);
+    CHECK(thin.exitCode == 0);
+    CHECK(lineCount(thin.err) == 1);
+    // The rod's far end: its 4 vertices 2.5 voxels and more from the cube's lattice, of 16.
+    CHECK_THAT(thin.err, Catch::StartsWith("dgv: warning: object 'part': 4 of its 16 vertices lie 2.5 voxels or more "
+                                           "from its lattice"));
+    CHECK_THAT(thin.err, Catch::Contains("a higher 'resolution' simulates them"));
+    const Run whole = runDgvIn(dir.path(), "-q simulate cube.json --out o_cube");
+    INFO("stderr: " << whole.err);
+    CHECK(whole.exitCode == 0);
+    CHECK(whole.err.empty());
 }
