@@ -107,15 +107,50 @@ Sl3Result projectToSL3Along(const Mat3& M, const Mat3& G) {
 
 // The affine contact response (stepper.hpp).
 void affineContactCorrection(const std::vector<AffineContact>& contacts, const Mat3& a, const Mat3& secondMoment,
-                             Vec3& dc, Mat3& dA) {
+                             Vec3& dc, Mat3& dA, Real viscousMoment) {
     const Mat3 sInv = secondMoment.inverse();
     std::vector<Vec3> gc(contacts.size());
     std::vector<Mat3> gA(contacts.size());
     std::vector<Real> invMass(contacts.size()), lambda(contacts.size(), 0);
+    // With viscosity the flex's metric is tr(δA S δAᵀ) + c |sym(δA A⁻¹)|² (c = 2ν δt: the
+    // implicit viscous stress resists a strain as added inertia; a turn not at all), a 9 × 9
+    // form on vec(δA) (column-major); its inverse maps an impulse's n X̃ᵀ to δA.
+    using Mat9 = Eigen::Matrix<Real, 9, 9>;
+    using Vec9 = Eigen::Matrix<Real, 9, 1>;
+    Eigen::LDLT<Mat9> metric;
+    Mat3 volumeDir = Mat3::Zero();  // the metric's inverse applied to A⁻ᵀ (det's gradient)
+    const bool viscous = viscousMoment > 0;
+    const Mat3 ait = a.inverse().transpose();
+    auto applyInverse = [&](const Mat3& g) {
+        const Vec9 v = metric.solve(Eigen::Map<const Vec9>(g.data()));
+        return Mat3(Eigen::Map<const Mat3>(v.data()));
+    };
+    if (viscous) {
+        const Mat3 ai = a.inverse();
+        Eigen::Matrix<Real, 9, 9> P;  // vec(δA) -> vec(sym(δA A⁻¹))
+        for (int j = 0; j < 9; ++j) {
+            Mat3 e = Mat3::Zero();
+            e.data()[j] = 1;
+            const Mat3 l = e * ai;
+            const Mat3 sym = Real(0.5) * (l + l.transpose());
+            P.col(j) = Eigen::Map<const Vec9>(sym.data());
+        }
+        Mat9 kinetic = Mat9::Zero();  // tr(δA S δAᵀ) = vec(δA)ᵀ (S ⊗ 1) vec(δA)
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) kinetic.block<3, 3>(3 * r, 3 * c) = secondMoment(r, c) * Mat3::Identity();
+        metric.compute(kinetic + viscousMoment * P.transpose() * P);
+        volumeDir = applyInverse(ait);
+    }
     for (std::size_t k = 0; k < contacts.size(); ++k) {
         const AffineContact& c = contacts[k];
         gc[k] = c.normal;
-        gA[k] = volumeKeeping(c.normal * c.rest.transpose() * sInv, a, sInv);
+        if (viscous) {
+            // The part that keeps det A to first order, in the same metric (volumeKeeping's).
+            const Mat3 g = applyInverse(c.normal * c.rest.transpose());
+            gA[k] = g - ((ait.array() * g.array()).sum() / (ait.array() * volumeDir.array()).sum()) * volumeDir;
+        } else {
+            gA[k] = volumeKeeping(c.normal * c.rest.transpose() * sInv, a, sInv);
+        }
         const Real m = c.normal.dot(gc[k] + gA[k] * c.rest);
         invMass[k] = m > 0 ? 1 / m : 0;
     }
@@ -417,6 +452,32 @@ void DeformableBody::setRigidVelocity(const Vec3& velocity, const Vec3& angularV
     setAffineVelocity(velocity, W);
 }
 
+void DeformableBody::viscousFlexKick(Real kick) {
+    // The viscous stress on the affine motion (docs/math.md, "Viscosity: the viscous stress at every scale"): a
+    // straining flow v = D x (D = sym(Ȧ A⁻¹)) dissipates 2 μ V |D|² = 2 ν M |D|²; as a Rayleigh dissipation in the
+    // flex's coordinates its force is Ä = −2ν D A⁻ᵀ S⁻¹ (S the rest second moment per unit mass), whose torque skew(D)
+    // is zero: angular momentum is kept exactly. Implicit over the kick, with L = Ȧ A⁻¹ the unknown: L + c sym(L) B⁻¹ =
+    // L₀ (c = 2ν kick, B = A S Aᵀ the second moment now). Its symmetric part D + (c/2)(D B⁻¹ + B⁻¹ D) = sym(L₀) is
+    // diagonal in B's eigenbasis (D'_ij / (1 + (c/2)(1/λ_i + 1/λ_j))), and the spin follows from the skew part. For a
+    // ball at rest (B = s·1) the strain rate decays by 1/(1 + 2ν kick/s) a kick.
+    const Mat3 invA = mA.inverse();
+    const Mat3 L0 = mAdot * invA;
+    const Mat3 B = mA * mS0inv.inverse() * mA.transpose();
+    Eigen::SelfAdjointEigenSolver<Mat3> es;
+    es.computeDirect(Real(0.5) * (B + B.transpose()));
+    const Vec3 lambda = es.eigenvalues();
+    if (!(lambda.minCoeff() > 0)) return;
+    const Mat3& Q = es.eigenvectors();
+    const Real c = 2 * mSet.viscosity * kick;
+    Mat3 D = Q.transpose() * (Real(0.5) * (L0 + L0.transpose())) * Q;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) D(i, j) /= 1 + Real(0.5) * c * (1 / lambda[i] + 1 / lambda[j]);
+    D = Q * D * Q.transpose();
+    const Mat3 Binv = Q * lambda.cwiseInverse().asDiagonal() * Q.transpose();
+    const Mat3 omega = Real(0.5) * (L0 - L0.transpose()) - Real(0.5) * c * (D * Binv - Binv * D);
+    mAdot = (D + omega) * mA;
+}
+
 void DeformableBody::fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& affine) const {
     centre = centreOfMass(mMass, x);
     using Acc = Eigen::Matrix<Real, 9, 1>;
@@ -570,6 +631,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     const Vec3 vcBefore = mVc + kick * accel;
     mVc = vcBefore;
     mAdot += kick * flexAccel;
+    if (mSet.viscosity > 0) viscousFlexKick(kick);
     mHalfStep = true;
     const Vec3 cNew = mC + dt * mVc;
     Mat3 aNew = mA + dt * mAdot;
@@ -654,7 +716,8 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         for (int c = 0; c < 3; ++c) mDGamma[static_cast<std::size_t>(c)][i] = dg[static_cast<std::size_t>(c)];
     });
     report.limitedPoints = std::count(limited.begin(), limited.end(), 1);
-    // Viscosity: the viscous term on the twist rate, implicit (docs/math.md, "Viscosity").
+    // Viscosity: the viscous term on the twist rate, implicit (docs/math.md, "Viscosity: the viscous stress at every
+    // scale").
     if (mSet.viscosity > 0) (void)viscousTwistStep(mLat, mSet.viscosity * dt / (mLat.spacing * mLat.spacing), mDGamma);
     report.sumDeltaGamma2 = sumDeltaGamma2();
     report.twistSeconds = since(t);
@@ -871,7 +934,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             Vec3 dc;
             Mat3 dA;
             if (!contacts.empty()) {
-                affineContactCorrection(contacts, aNew, mS0inv.inverse(), dc, dA);
+                affineContactCorrection(contacts, aNew, mS0inv.inverse(), dc, dA, 2 * mSet.viscosity * dt);
                 // Bounded: no point is thrown further along the contacts' mean normal than the
                 // deepest contact is deep, and the strain of one step stays under
                 // kMaxContactStrain; the points take the rest. (Contacts on opposite sides, e.g.

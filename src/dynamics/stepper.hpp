@@ -77,10 +77,12 @@ struct DynamicsSettings {
     Real density = 1000;  ///< kg/m^3
     Real damping = 1;     ///< ζ, 1/s: twist δΓ decays as exp(−ζ t); flex stretch rate too.
                           ///< Goo with 0 flows forever after a push and folds (docs/math.md)
-    /// ν, m²/s: kinematic viscosity (docs/math.md, "Viscosity: the viscous stress on the twist
-    /// rate"). The viscous term ν ∇²v on the non-affine motion, which the twist carries, as an
-    /// implicit diffusion of δΓ over the lattice each step: stable at any ν, the lattice-scale
-    /// part damped most, affine motion (a spin) not at all. 0: none (the notes' goo).
+    /// ν, m²/s: kinematic viscosity (docs/math.md, "Viscosity: the viscous stress at every
+    /// scale"). On the non-affine motion, which the twist carries, the viscous term ν ∇²v as an
+    /// implicit diffusion of δΓ over the lattice each step (the lattice-scale part damped most);
+    /// on the affine motion, the strain rate's dissipation 2μ|D|², which decays the flex's
+    /// strain rate at 2ν/s (s the body's mean second moment). Implicit, so stable at any ν; a
+    /// rigid turn has no strain rate and keeps its spin. 0: none (the notes' goo).
     Real viscosity = 0;
     Real shapeStiffness = 0;  ///< k, 1/s^2: restoring term toward the rest shape (jelly);
                               ///< wobble frequency sqrt(k)/(2π) Hz
@@ -165,11 +167,11 @@ bool twistUpdate(const Mat3& F, const Mat3& Fi, const Mat3& step, const std::arr
                  const std::array<Mat3, 3>& gamma, Real dt, const DynamicsSettings& settings,
                  std::array<Mat3, 3>& dGamma);
 
-/// The viscous step of the twist rate (docs/math.md, "Viscosity"): solves (1 + α L) y = δΓ for
-/// each of the 27 components, L the lattice's graph Laplacian (Σ over a point's neighbours of
-/// y_p − y_q; no flux across the boundary) and α = ν δt / h², by Jacobi-preconditioned conjugate
-/// gradients to a relative residual of 1e-8, in place. Σ_p δΓ_p is kept (L's columns sum to 0)
-/// and no point's |δΓ| grows past the largest before (y is a weighted mean of δΓ). Deterministic.
+/// The viscous step of the twist rate (docs/math.md, "Viscosity: the viscous stress at every scale"): solves (1 + α L)
+/// y = δΓ for each of the 27 components, L the lattice's graph Laplacian (Σ over a point's neighbours of y_p − y_q; no
+/// flux across the boundary) and α = ν δt / h², by Jacobi-preconditioned conjugate gradients to a relative residual of
+/// 1e-8, in place. Σ_p δΓ_p is kept (L's columns sum to 0) and no point's |δΓ| grows past the largest before (y is a
+/// weighted mean of δΓ). Deterministic.
 /// @return the CG iterations taken
 int viscousTwistStep(const Lattice& lat, Real alpha, std::array<std::vector<Mat3>, 3>& dGamma);
 
@@ -190,10 +192,14 @@ struct AffineContact {
 /// deepest depth or 64 sweeps. One contact at the pole X̃ = −r n of a body with S = s·1 and
 /// A = 1: λ = d / (1 + 2r²/(3s)), δc = λ n, δA = −(λ r / s)(n nᵀ − 1/3) (a ball: 3/13 of the push
 /// moves the centre, 10/13 squash it).
-/// @param a             the affine part A the correction applies to (det A = 1)
-/// @param secondMoment  S = ⟨X̃X̃ᵀ⟩ per unit mass
+/// With viscosity the strain resists as added inertia (docs/math.md, "Viscosity: the viscous stress at every scale"):
+/// the flex's metric becomes tr(δA S δAᵀ) + c |sym(δA A⁻¹)|², c = 2ν δt, so a viscous body takes more of the push into
+/// its centre and less into a squash (at the pole, s → s + c in the closed form).
+/// @param a              the affine part A the correction applies to (det A = 1)
+/// @param secondMoment   S = ⟨X̃X̃ᵀ⟩ per unit mass
+/// @param viscousMoment  c = 2ν δt (m²); 0: the kinetic metric alone
 void affineContactCorrection(const std::vector<AffineContact>& contacts, const Mat3& a, const Mat3& secondMoment,
-                             Vec3& dc, Mat3& dA);
+                             Vec3& dc, Mat3& dA, Real viscousMoment = 0);
 
 /// A collider as a signed distance (negative inside) with its gradient: static (a plane, a
 /// sphere, a mesh or level set), or another body's surface (`object`), which moves with
@@ -342,6 +348,8 @@ public:
 
 private:
     void fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& affine) const;
+    /// The viscosity's implicit decay of the flex's strain rate over a leapfrog kick (stepper.cpp).
+    void viscousFlexKick(Real kick);
     VolumeProjectionSettings volumeSettings();  ///< the volume projection's settings (body_state.cpp)
 
     const Lattice& mLat;

@@ -84,6 +84,46 @@ TEST_CASE("affine contact: one contact at the pole has the closed form", "[dynam
     CHECK(n.dot(dc + dA * (-r * n)) == Approx(d).epsilon(1e-12));  // lifted exactly out
 }
 
+TEST_CASE("affine contact: a viscous body takes the pole's push into its centre as s + 2 nu dt in the closed form",
+          "[dynamics][contact][viscosity]") {
+    // The metric s|δA|² + c|sym δA|² at A = 1: a pole contact's n X̃ᵀ = −r n nᵀ is symmetric, so
+    // the closed form holds with s + c: λ = d / (1 + 2r²/(3(s + c))), δA = −(λ r/(s + c))(n nᵀ − 1/3).
+    const Real r = 0.4, s = r * r / 5, d = 0.003;
+    const Vec3 n = Vec3(0.3, 1, -0.2).normalized();
+    for (const Real c : {0.0, 1e-3, 0.05, 10.0}) {
+        Vec3 dc;
+        Mat3 dA;
+        affineContactCorrection({AffineContact{-r * n, n, d}}, Mat3::Identity(), s * Mat3::Identity(), dc, dA, c);
+        const Real lambda = d / (1 + 2 * r * r / (3 * (s + c)));
+        INFO("c = " << c << ": the centre takes " << lambda / d << " of the push");
+        CHECK((dc - lambda * n).norm() < 1e-14);
+        const Mat3 expected = -(lambda * r / (s + c)) * (n * n.transpose() - Mat3::Identity() / 3);
+        CHECK((dA - expected).norm() < 1e-13);
+        CHECK(std::abs(dA.trace()) < 1e-14);
+        CHECK(n.dot(dc + dA * (-r * n)) == Approx(d).epsilon(1e-12));
+    }
+    // A sideways contact on a turned, sheared body: the viscosity resists the strain, not the
+    // turn, so the squash shrinks with c while the spin part of A⁻¹δA does not vanish.
+    const Mat3 a = Eigen::AngleAxis<Real>(0.7, Vec3(0.2, 1, 0.4).normalized()).toRotationMatrix() *
+                   (Mat3() << 1.1, 0.05, 0, 0, 1 / 1.1, 0, 0, 0, 1).finished();
+    const Mat3 S = (Mat3() << 0.02, 0.001, 0, 0.001, 0.03, 0.002, 0, 0.002, 0.025).finished();
+    const std::vector<AffineContact> off = {{Vec3(0.2, -0.25, 0.1), Vec3(0, 1, 0), 0.002}};
+    Real strain0 = 0, strain1 = 0, spin1 = 0;
+    for (const Real c : {0.0, 1.0}) {
+        Vec3 dc;
+        Mat3 dA;
+        affineContactCorrection(off, a, S, dc, dA, c);
+        const Mat3 l = dA * a.inverse();
+        (c == 0 ? strain0 : strain1) = (0.5 * (l + l.transpose())).norm();
+        if (c > 0) spin1 = (0.5 * (l - l.transpose())).norm();
+        CHECK(std::abs((a.inverse() * dA).trace()) < 1e-12);
+        CHECK(off[0].normal.dot(dc + dA * off[0].rest) == Approx(off[0].depth).epsilon(1e-9));
+    }
+    INFO("strain of the push: " << strain0 << " without viscosity, " << strain1 << " at c = 1 (spin " << spin1 << ")");
+    CHECK(strain1 < 0.05 * strain0);
+    CHECK(spin1 > strain1);
+}
+
 TEST_CASE("affine contact: a patch on a tilted body is lifted out without pulling and keeps det A",
           "[dynamics][contact]") {
     // A sheared, rotated body (det A = 1) with a 5x5 patch of contacts of varying depth on a plane.
@@ -619,4 +659,44 @@ TEST_CASE("contact: a goo ball resting on the ground spreads without crushing it
     CHECK(body.flex()(1, 1) < 0.5);  // it did spread: measured 0.234 (0.369 at the fold before)
     CHECK(lowest > 0.3);             // measured 0.480 (0.009 before it folded)
     CHECK(maxErr <= 1e-4);           // measured 1.6e-6
+}
+
+TEST_CASE("contact: a viscous goo ball squashes less as it lands and slumps no faster than g r / (3 nu) at rest",
+          "[dynamics][contact][viscosity]") {
+    // The ground's reaction M g at the pole drives the flex with −M g r (n nᵀ − 1/3), the
+    // viscous stress resists with 2 ν M D: the steady slump the viscosity allows is
+    // D_yy = −g r / (3ν) (docs/math.md, "Viscosity"). And landing, the implicit viscous stress is
+    // added inertia against the squash (affineContactCorrection), so a viscous ball takes the
+    // impact more into its centre.
+    const int r = 6;
+    const Real h = 0.05, radius = r * h;
+    const Lattice resting = test::sphereLattice(r, h, Vec3(-r * h, 0.5 * h, -r * h));
+    const Lattice falling = test::sphereLattice(r, h, Vec3(-r * h, 2 * h, -r * h));
+    Real lastRate = -1e30, lastSquash = 0;
+    for (const Real nu : {0.0, 0.1, 0.5, 2.0, 8.0}) {
+        DynamicsSettings set;
+        set.viscosity = nu;
+        DeformableBody body(resting, restPositions(resting), set);
+        int done = 0;
+        Real a0 = 0, a1 = 0;
+        REQUIRE(stepAt96(body, test::gravityField(), {test::groundPlane()}, 48, done, [&](int s, const StepReport&) {
+                    if (s == 23) a0 = body.flex()(1, 1);
+                    if (s == 47) a1 = body.flex()(1, 1);
+                }).empty());
+        const Real rate = (a1 - a0) / (24.0 / 96);  // A_yy over the second quarter second
+        DeformableBody lander(falling, restPositions(falling), set);
+        lander.setRigidVelocity(Vec3(0, -3, 0), Vec3::Zero());
+        Real squash = 1;
+        REQUIRE(stepAt96(lander, test::gravityField(), {test::groundPlane()}, 48, done, [&](int, const StepReport&) {
+                    squash = std::min(squash, lander.flex()(1, 1));
+                }).empty());
+        INFO("nu " << nu << ": resting A_yy " << a0 << " -> " << a1 << ", rate " << rate << " /s (viscous bound "
+                   << (nu > 0 ? -9.81 * radius / (3 * nu) : 0.0) << "); landing at 3 m/s squashes to A_yy " << squash);
+        CHECK(rate < 0);
+        CHECK(rate > lastRate);      // slower the more viscous
+        CHECK(squash > lastSquash);  // and less squashed by the landing
+        if (nu > 0) CHECK(-rate <= 9.81 * radius / (3 * nu));
+        lastRate = rate;
+        lastSquash = squash;
+    }
 }
