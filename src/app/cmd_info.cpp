@@ -3,6 +3,8 @@
 #include "app/commands.hpp"
 #include "base/errors.hpp"
 #include "base/progress.hpp"
+#include "geom/embedding.hpp"
+#include "geom/lattice.hpp"
 #include "geom/triangle_mesh.hpp"
 #include "geom/voxelise.hpp"
 #include "io/mesh_import.hpp"
@@ -65,6 +67,21 @@ int runInfo(const InfoOptions& options) {
     else
         std::printf("voxel_to_mesh_volume: n/a (zero mesh volume)\n");
     std::printf("voxelise_seconds: %.3f\n", v.seconds);
+    // What a scene builds from it (io/scene_build): the lattice without its loose voxels, and the
+    // vertices too far from it to move with dynamics of their own (docs/math.md, "Embedding").
+    Index loose = 0;
+    const Lattice kept = withoutLoosePoints(lat, &loose);
+    std::printf("material_points: %lld  (%lld loose voxels in no complete cell dropped)\n",
+                static_cast<long long>(kept.size()), static_cast<long long>(loose));
+    if (kept.size() > 0 && !mesh.vertices.empty()) {
+        const MeshEmbedding emb = embedVertices(kept, mesh.vertices);
+        Index far = 0;
+        for (const Real s : emb.fitBlend) far += s >= 1 ? 1 : 0;
+        std::printf(
+            "unresolved_vertices: %lld of %zu  (%.1f voxels or more from the lattice: thinner than it "
+            "resolves)\n",
+            static_cast<long long>(far), mesh.vertices.size(), double(kFitFull));
+    }
     if (m.signedVolume < 0 && m.closed)
         std::printf("note: negative volume: the triangles face inwards (dgv voxelises it all the same)\n");
     return kExitOk;

@@ -501,4 +501,11 @@ TEST_CASE("e2e: a part thinner than the lattice resolves runs, with one warning 
     INFO("stderr: " << whole.err);
     CHECK(whole.exitCode == 0);
     CHECK(whole.err.empty());
+    // `dgv info` says the same of the mesh, at the same resolution.
+    const Run info = runDgvIn(dir.path(), "info rodded.obj --resolution 16");
+    INFO("stdout: " << info.out);
+    CHECK(info.exitCode == 0);
+    CHECK_THAT(info.out, Catch::Contains("\nunresolved_vertices: 4 of 16 "));
+    const Run infoCube = runDgvIn(dir.path(), "info cube.obj --resolution 16");
+    CHECK_THAT(infoCube.out, Catch::Contains("\nunresolved_vertices: 0 of 8 "));
 }
