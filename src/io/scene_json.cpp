@@ -430,7 +430,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
                 mat.stiffness = 0;
                 mat.wobbles = 0;
-                mat.damping = 1;
+                mat.damping = 0;
+                mat.viscosity = 1;
             } else if (preset == "putty") {
                 mat.yield = 0.1;
                 mat.wobbles = 1;

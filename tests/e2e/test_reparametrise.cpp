@@ -22,12 +22,13 @@ namespace {
 
 constexpr int kFrames = 16;
 
+// The notes' goo (no viscosity) in a vortex: the flow that outruns a fixed lattice.
 fs::path writeSwirlScene(const fs::path& dir, bool reparametrise = true) {
     const fs::path scene = dir / "swirl.json";
     std::ofstream(scene) << R"({"name": "swirl", "frames": {"start": 1, "end": )" << kFrames
                          << R"(, "fps": 24}, "substeps": 2,
   "objects": [{"name": "goo", "primitive": {"type": "sphere", "radius": 0.3}, "resolution": 10,
-               "color": [0.4, 0.7, 0.3], "material": {"preset": "goo", "damping": 1, "reparametrise": )"
+               "color": [0.4, 0.7, 0.3], "material": {"preset": "goo", "damping": 1, "viscosity": 0, "reparametrise": )"
                          << (reparametrise ? "true" : "false") << R"(}}],
   "forces": [{"type": "vortex", "position": [0, 0, 0], "axis": [0, 1, 0], "radius": 0.12, "strength": 3}],
   "camera": {"type": "look_at", "eye": [0, 1.6, 1.4], "target": [0, 0, 0], "fov": 40},

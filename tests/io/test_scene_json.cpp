@@ -317,7 +317,8 @@ TEST_CASE("scene_json: a body without material settings is jelly, and the preset
     CHECK(std::exp(-0.5 * zeta * 3 * 2 * 3.141592653589793 / std::sqrt(k)) == Approx(0.1));
     const MaterialDesc goo = material(R"(, "material": {"preset": "goo"})");
     CHECK(resolvedStiffness(goo, 0.5) == 0);
-    CHECK(resolvedDamping(goo, 0) == 1);
+    CHECK(resolvedDamping(goo, 0) == 0);
+    CHECK(goo.viscosity == 1);
     const MaterialDesc putty = material(R"(, "material": {"preset": "putty"})");
     CHECK(putty.yield == Approx(0.1));
     CHECK(resolvedStiffness(putty, 0.5) == Approx(981));
