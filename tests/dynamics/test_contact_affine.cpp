@@ -442,7 +442,7 @@ TEST_CASE("contact: a jelly resting on a frictionless ground stays where it is, 
     }
 }
 
-TEST_CASE("contact: a jelly spinning on a frictionless ground is not spun up by it", "[dynamics][contact]") {
+TEST_CASE("contact: a jelly spinning on a frictionless ground is not spun up by it", "[dynamics][contact][slow]") {
     // A lopsided voxel ball set down on the ground spinning at 1 rad/s about the vertical
     // (docs/math.md, "The contact's affine jump adds no torque"). The ground pushes
     // along y only and gravity acts at the centre, so nothing exerts a torque about y: L_y =
@@ -662,7 +662,7 @@ TEST_CASE("contact: a goo ball resting on the ground spreads without crushing it
 }
 
 TEST_CASE("contact: a viscous goo ball squashes less as it lands and slumps no faster than g r / (3 nu) at rest",
-          "[dynamics][contact][viscosity]") {
+          "[dynamics][contact][viscosity][slow]") {
     // The ground's reaction M g at the pole drives the flex with −M g r (n nᵀ − 1/3), the
     // viscous stress resists with 2 ν M D: the steady slump the viscosity allows is
     // D_yy = −g r / (3ν) (docs/math.md, "Viscosity"). And landing, the implicit viscous stress is

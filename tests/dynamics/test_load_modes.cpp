@@ -93,7 +93,7 @@ TEST_CASE("load modes: each is volume-keeping, zero at the pins and largest at t
 }
 
 TEST_CASE("load modes: a pinned jelly bar sags under gravity to the modal closed form and rests there",
-          "[dynamics][load]") {
+          "[dynamics][load][slow]") {
     Cantilever c;
     const Real k = GENERATE(Real(200), Real(800));
     DeformableBody body(c.lat, restPositions(c.lat), jelly(k, 4), c.pinned);

@@ -75,7 +75,7 @@ Stretch stretchAndRelease(Real rate, Real yield) {
 
 TEST_CASE(
     "plasticity: a stretch beyond the yield leaves the excess as a permanent set, within it the body springs back",
-    "[dynamics][plastic]") {
+    "[dynamics][plastic][slow]") {
     const Real yield = 0.1;
     // Beyond: the elastic strain is capped at the yield while the stretch grows, so at the peak
     // the rest shape holds peak − yield; released, the memory and damping take the elastic part

@@ -120,7 +120,7 @@ TEST_CASE("stepper: a stiff spinning jelly keeps its twist bounded in free fligh
     CHECK(notes.lastSecond < 0.1 * notes.afterPush);  // measured 1.2e-7 against 3.8e-5
 }
 
-TEST_CASE("stepper: a jelly under a strong alternating vortex for 1000 frames", "[dynamics][stepper][long]") {
+TEST_CASE("stepper: a jelly under a strong alternating vortex for 1000 frames", "[dynamics][stepper][long][slow]") {
     // A ball of 4 voxels' radius whose centre is 0.1 m from the axis of a vortex (so the axis runs
     // through it and the core turns faster than the rim), strength swinging between +4 and −4 m/s²
     // every 24 frames at 24 fps, 2 substeps: 2,000 steps; a linear trap keeps it near the axis.
