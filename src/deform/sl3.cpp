@@ -55,20 +55,6 @@ bool pathStaysPositive(const Cubic& p, Real f) {
 
 }  // namespace
 
-Mat3 cofactor(const Mat3& M) {
-    Mat3 C;
-    C(0, 0) = M(1, 1) * M(2, 2) - M(1, 2) * M(2, 1);
-    C(0, 1) = M(1, 2) * M(2, 0) - M(1, 0) * M(2, 2);
-    C(0, 2) = M(1, 0) * M(2, 1) - M(1, 1) * M(2, 0);
-    C(1, 0) = M(0, 2) * M(2, 1) - M(0, 1) * M(2, 2);
-    C(1, 1) = M(0, 0) * M(2, 2) - M(0, 2) * M(2, 0);
-    C(1, 2) = M(0, 1) * M(2, 0) - M(0, 0) * M(2, 1);
-    C(2, 0) = M(0, 1) * M(1, 2) - M(0, 2) * M(1, 1);
-    C(2, 1) = M(0, 2) * M(1, 0) - M(0, 0) * M(1, 2);
-    C(2, 2) = M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0);
-    return C;
-}
-
 Sl3Result projectToSL3Scale(const Mat3& M) {
     Sl3Result r;
     r.matrix = M;

@@ -14,13 +14,10 @@
 /// no real root for a large share of realistic matrices and its least-|f| root can invert M
 /// (rates measured in tests/deform/test_sl3.cpp and tabled in docs/math.md).
 
+#include "base/mat3.hpp"  // cofactor, which the projections' derivatives use
 #include "base/types.hpp"
 
 namespace dgv {
-
-/// Cofactor matrix of M: cof(M)(i, j) = (-1)^(i+j) minor_ij = d det(M) / d M(i, j).
-/// cof(M) = det(M) M^-T for invertible M.
-Mat3 cofactor(const Mat3& M);
 
 /// Why a projection failed.
 enum class Sl3Failure {

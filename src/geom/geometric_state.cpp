@@ -1,6 +1,7 @@
 #include "geom/geometric_state.hpp"
 
 #include "base/check.hpp"
+#include "base/mat3.hpp"
 #include "base/parallel.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -197,17 +198,8 @@ void completeFrame(std::array<Vec3, 3>& tangent, const std::array<bool, 3>& pres
 }
 
 bool invertMetric(const Mat3& g, Mat3& gInv) {
-    // Adjugate (cofactors) of the symmetric g.
-    Mat3 adj;
-    adj(0, 0) = g(1, 1) * g(2, 2) - g(1, 2) * g(2, 1);
-    adj(0, 1) = g(0, 2) * g(2, 1) - g(0, 1) * g(2, 2);
-    adj(0, 2) = g(0, 1) * g(1, 2) - g(0, 2) * g(1, 1);
-    adj(1, 1) = g(0, 0) * g(2, 2) - g(0, 2) * g(2, 0);
-    adj(1, 2) = g(0, 2) * g(1, 0) - g(0, 0) * g(1, 2);
-    adj(2, 2) = g(0, 0) * g(1, 1) - g(0, 1) * g(1, 0);
-    adj(1, 0) = adj(0, 1);
-    adj(2, 0) = adj(0, 2);
-    adj(2, 1) = adj(1, 2);
+    // The adjugate, cof(g)ᵀ (equal to cof(g) for the symmetric g).
+    const Mat3 adj = cofactor(g).transpose();
     const Real det = g(0, 0) * adj(0, 0) + g(0, 1) * adj(1, 0) + g(0, 2) * adj(2, 0);
     const Real t = g.trace() / Real(3);
     if (t > Real(0) && det > Real(1e-14) * t * t * t) {
