@@ -2,10 +2,11 @@
 # The dynamics stress suite (scenes/stress/README.md): runs every scene of scenes/stress/ with
 # `dgv simulate` and judges it against the volume goals. Not part of ctest.
 #
-#   scripts/stress.sh [--big] [--scenes DIR] [--dgv PATH] [--jobs N] [--out DIR] [--timeout S] [--keep] [PATTERN...]
+#   scripts/stress.sh [--big] [--scenes DIR] [--solver chain|one] [--dgv PATH] [--jobs N] [--out DIR] [--timeout S] [--keep] [PATTERN...]
 #
 #   --big        also run the big scenes of scenes/stress/big/ (137k points; minutes each)
 #   --scenes DIR the scenes of DIR/*.json instead (scripts/models.sh writes its scenes there)
+#   --solver S   every object's material.solver (dgv simulate --solver; default: each scene's own)
 #   --dgv PATH   the dgv binary (default: $DGV, else build/dgv)
 #   --jobs N     scenes run at once (default 1); each run is `dgv --threads 1`
 #   --out DIR    output folder (default out/stress): DIR/<name>/stats.csv, DIR/logs/<name>.log,
@@ -35,9 +36,10 @@ OUT=out/stress
 TIMEOUT=0
 BIG=0
 KEEP=0
+SOLVER=()
 PATTERNS=()
 
-usage() { sed -n '2,26p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,27p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 die() { echo "stress: $*" >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
@@ -46,6 +48,8 @@ while [ $# -gt 0 ]; do
         --keep) KEEP=1 ;;
         --scenes) [ $# -ge 2 ] || die "--scenes needs a folder"; SCENES=$2; shift ;;
         --scenes=*) SCENES=${1#*=} ;;
+        --solver) [ $# -ge 2 ] || die "--solver needs chain or one"; SOLVER=(--solver "$2"); shift ;;
+        --solver=*) SOLVER=(--solver "${1#*=}") ;;
         --dgv) [ $# -ge 2 ] || die "--dgv needs a path"; DGV=$2; shift ;;
         --dgv=*) DGV=${1#*=} ;;
         --jobs|-j) [ $# -ge 2 ] || die "--jobs needs a number"; JOBS=$2; shift ;;
@@ -159,9 +163,9 @@ run_one() {
     last=$(last_frame "$file")
     t0=$(date +%s.%N)
     if [ "$TIMEOUT" -gt 0 ]; then
-        timeout -k 10 "$TIMEOUT" "$DGV" --threads 1 -q simulate "$file" --out "$dir" >"$log" 2>&1
+        timeout -k 10 "$TIMEOUT" "$DGV" --threads 1 -q simulate "$file" --out "$dir" "${SOLVER[@]}" >"$log" 2>&1
     else
-        "$DGV" --threads 1 -q simulate "$file" --out "$dir" >"$log" 2>&1
+        "$DGV" --threads 1 -q simulate "$file" --out "$dir" "${SOLVER[@]}" >"$log" 2>&1
     fi
     rc=$?
     t1=$(date +%s.%N)

@@ -158,6 +158,7 @@ Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
 
 int runRender(const RenderOptions& options) {
     SceneDesc scene = loadScene(options.scene);
+    if (!options.solver.empty()) overrideSolver(scene, options.solver);
     int first = scene.frameStart, last = scene.frameEnd;
     if (!options.frames.empty()) parseFrameRange(options.frames, scene, first, last);
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();

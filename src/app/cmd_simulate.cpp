@@ -19,6 +19,7 @@ namespace fs = std::filesystem;
 
 int runSimulate(const SimulateOptions& options) {
     SceneDesc scene = loadScene(options.scene);
+    if (!options.solver.empty()) overrideSolver(scene, options.solver);
     if (!scene.curves.empty())
         throw InputError(scene.path, "curves", "a curve scene has no dynamics to simulate; use 'dgv render'");
     int first = scene.frameStart, last = scene.frameEnd;

@@ -14,6 +14,7 @@ struct RenderOptions {
     std::string outDir;              ///< empty: the scene's output.dir
     int width = 0, height = 0;       ///< 0: the scene's
     std::string resolution;          ///< "WxH" (overrides width/height); empty: the scene's
+    std::string solver;              ///< "chain" or "one": every object's material.solver; empty: the scene's
     std::string glBackend = "auto";  ///< auto | egl | osmesa
     bool contactSheet = false;       ///< also <out>/<name>.contact.png: the frames in a grid
     bool movie = false;              ///< also <out>/<name>.mp4 through ffmpeg (must be on PATH)
@@ -30,6 +31,7 @@ struct SimulateOptions {
     bool vdb = false;
     bool resume = false;  ///< continue from the last valid state checkpoint (docs/robustness.md)
     std::string mesh;     ///< --mesh ply|obj: the mesh cache (overrides output.mesh)
+    std::string solver;   ///< --solver chain|one: every object's material.solver; empty: the scene's
 };
 int runSimulate(const SimulateOptions& options);
 

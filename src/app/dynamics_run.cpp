@@ -18,6 +18,11 @@ namespace dgv::app {
 namespace fs = std::filesystem;
 
 /// Parses "A-B" or "N" and checks it lies within the scene's frame range.
+void overrideSolver(SceneDesc& scene, const std::string& solver) {
+    for (ObjectDesc& o : scene.objects)
+        o.material.solver = solver == "one" ? MaterialDesc::Solver::One : MaterialDesc::Solver::Chain;
+}
+
 void parseFrameRange(const std::string& text, const SceneDesc& scene, int& first, int& last) {
     auto bad = [&](const std::string& what) { throw InputError("--frames", "", what); };
     try {

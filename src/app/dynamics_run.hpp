@@ -19,6 +19,9 @@ namespace dgv::app {
 /// Parses "A-B" or "N" (--frames) and checks it lies within the scene's frame range.
 void parseFrameRange(const std::string& text, const SceneDesc& scene, int& first, int& last);
 
+/// --solver: sets every object's material.solver ("chain" or "one"; CLI11 checked the word).
+void overrideSolver(SceneDesc& scene, const std::string& solver);
+
 class DynamicsRun {
 public:
     /// @param writeVdb  write out/<scene>/vdb/<scene>.####.vdb per frame (builds the bodies even

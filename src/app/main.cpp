@@ -209,6 +209,8 @@ int main(int argc, char** argv) {
     cRender->add_option("--resolution", render.resolution, "Image size WxH, e.g. 1920x1080 (overrides the scene)");
     cRender->add_option("--gl-backend", render.glBackend, "OpenGL context: auto (OSMesa, else EGL), egl or osmesa")
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}));
+    cRender->add_option("--solver", render.solver, "Every object's material.solver: chain or one (docs/math.md)")
+        ->check(CLI::IsMember({"chain", "one"}));
     cRender->add_flag("--contact-sheet", render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
     cRender->add_flag("--movie", render.movie,
                       "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");
@@ -226,6 +228,8 @@ int main(int argc, char** argv) {
     cSim->add_option("scene", simulate.scene, "Scene file (JSON, see scenes/README.md)")->required();
     cSim->add_option("--frames", simulate.frames, "Last frame N, or A-B (frames before A are simulated, not written)");
     cSim->add_option("--out", simulate.outDir, "Output folder (default: the scene's output.dir)");
+    cSim->add_option("--solver", simulate.solver, "Every object's material.solver: chain or one (docs/math.md)")
+        ->check(CLI::IsMember({"chain", "one"}));
     cSim->add_flag("--vdb", simulate.vdb, "Write the VDB cache (also on when the scene sets output.vdb)");
     cSim->add_option("--mesh", simulate.mesh,
                      "Write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply); "

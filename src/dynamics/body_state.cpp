@@ -47,6 +47,9 @@ DeformableBodyState DeformableBody::saveState() const {
     s.volumeLambdaPrev = mVolumeLambdaPrev;
     s.volumeCachePositions = mVolumeCache.builtFromPositions;
     s.volumeCachePinned = mVolumeCache.builtFromPinned;
+    s.cellRest = mCellRest;
+    s.positionsBefore = mXBefore;
+    s.velocitiesBefore = mVBefore;
     return s;
 }
 
@@ -59,7 +62,10 @@ bool DeformableBody::stateFits(const DeformableBodyState& s) const {
               (s.volumeCachePinned.empty() || s.volumeCachePinned.size() == n) &&
               (!s.volumeCachePinned.empty() ? !s.volumeCachePositions.empty() : true) &&
               (s.volumeLambda.empty() || s.volumeLambda.size() == cells) &&
-              (s.volumeLambdaPrev.empty() || s.volumeLambdaPrev.size() == cells);
+              (s.volumeLambdaPrev.empty() || s.volumeLambdaPrev.size() == cells) &&
+              (s.cellRest.empty() || s.cellRest.size() == mCellRest.size()) &&
+              (s.positionsBefore.empty() || s.positionsBefore.size() == n) &&
+              s.velocitiesBefore.size() == s.positionsBefore.size();
     for (std::size_t a = 0; a < 3; ++a) {
         ok = ok && s.deltaGamma[a].size() == n;
         ok = ok && s.plasticGamma[a].size() == mPlasticGamma[a].size();  // n with plasticity, else 0
@@ -92,6 +98,11 @@ void DeformableBody::restoreState(DeformableBodyState s) {
     mDisplacementPrev = std::move(s.displacementPrev);
     mVolumeLambda = std::move(s.volumeLambda);
     mVolumeLambdaPrev = std::move(s.volumeLambdaPrev);
+    // (none: a body re-voxelised in its current shape, which its new cells take as their rest)
+    if (!s.cellRest.empty()) mCellRest = std::move(s.cellRest);
+    else std::fill(mCellRest.begin(), mCellRest.end(), Mat3::Identity());
+    mXBefore = std::move(s.positionsBefore);
+    mVBefore = std::move(s.velocitiesBefore);
     mPredicted = false;  // a step cut short by a fault (Simulation::advanceTo retries the frame)
     // The geometric state is a function of the positions (the step ends by computing it so).
     computeGeometricState(mLat, mX, mState, BoundaryStencils::Realisable);

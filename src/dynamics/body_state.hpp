@@ -46,6 +46,8 @@ struct DeformableBodyState {
     std::vector<Real> volumeLambdaPrev;            ///< #C or empty: the step's before
     std::vector<Vec3> volumeCachePositions;        ///< VolumeProjectionCache::builtFromPositions (#P or empty)
     std::vector<unsigned char> volumeCachePinned;  ///< VolumeProjectionCache::builtFromPinned (#P or empty)
+    std::vector<Vec3> positionsBefore, velocitiesBefore;  ///< StepSolver::One, BDF2: the step before's (#P or empty)
+    std::vector<Mat3> cellRest;                    ///< StepSolver::One with plasticity: each cell's rest stretch (#C or empty)
 };
 
 }  // namespace dgv

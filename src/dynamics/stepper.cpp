@@ -421,7 +421,12 @@ DeformableBody::DeformableBody(const Lattice& lattice, std::vector<Vec3> positio
     for (Index p = 0; p < n; ++p)
         if (fixed[at(p)]) mSolverFixed.push_back(p);
     mSolver = std::make_unique<PoissonSolver>(mLat, fixed);
-    if (mAnyPinned && mSet.pinnedLoad)
+    if (mSet.solver == StepSolver::One) {
+        mCellSolver = CellSolver(mLat, mCells, mMass, mPinned);
+        mShear = mSet.density * mSet.modulusPerStiffness * mSet.shapeStiffness * (S0.trace() / 3);
+        if (mSet.yieldStrain > 0) mCellRest.assign(at(mCells.size()), Mat3::Identity());
+    }
+    if (mAnyPinned && mSet.pinnedLoad && mSet.solver == StepSolver::Chain)
         mLoad = computeLoadModes(mLat, mX, mPinned, mCells, mRestVolumes, mMass, *mSolver);
     mRecWork = std::make_unique<ReconstructWork>();
     mRecWork->tree = spanningTree(mLat, fixed);
@@ -572,6 +577,7 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
 StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt) {
     DGV_CHECK(dt > 0);
     mPredicted = false;
+    if (mSet.solver == StepSolver::One) return predictOne(field, frame, dt);
     const auto tStart = Clock::now();
     StepReport report;
     const Index n = mLat.size();
@@ -848,6 +854,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
 
 StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     DGV_CHECK(mPredicted);
+    if (mSet.solver == StepSolver::One) return finishOne(colliders);
     mPredicted = false;
     const auto tStart = Clock::now();
     StepReport report = mPredReport;

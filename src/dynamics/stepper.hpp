@@ -42,6 +42,7 @@
 #include "base/types.hpp"
 #include "deform/volume.hpp"
 #include "dynamics/body_state.hpp"
+#include "dynamics/cell_solve.hpp"
 #include "dynamics/forces.hpp"
 #include "dynamics/load_modes.hpp"
 #include "geom/geometric_state.hpp"
@@ -71,10 +72,25 @@ enum class TwistStretch {
     Full,      ///< eq 76 as written (unstable in long runs; for comparison)
 };
 
+/// How a substep is solved (docs/math.md, "The one-solve step").
+enum class StepSolver {
+    Chain,  ///< the notes' stages in turn: predict, colliders, volume projection, landing rules (default)
+    One,    ///< one minimisation in which inertia, memory, viscosity, volumes, corners, contact and pins meet
+};
+
+/// StepSolver::One with plasticity: the most a cell's rest shape stretches or shrinks along any
+/// axis (a rest shape far from the cube its corners' barrier and stiffness are scaled for).
+constexpr Real kMaxRestStretch = 2.5;
+
 /// Material and integration settings of a body. Defaults: goo (no memory of its rest shape),
 /// damped at 1/s.
 struct DynamicsSettings {
     Real density = 1000;  ///< kg/m^3
+    StepSolver solver = StepSolver::Chain;
+    /// StepSolver::One: the cells' shear modulus per unit density, stiffness and mean second
+    /// moment per unit mass, μ/(ρ k s): what makes a ball's squash wobble at √k/2π (measured:
+    /// docs/math.md, "The one-solve step").
+    Real modulusPerStiffness = 0.7;
     Real damping = 1;     ///< ζ, 1/s: twist δΓ decays as exp(−ζ t); flex stretch rate too.
                           ///< Goo with 0 flows forever after a push and folds (docs/math.md)
     /// ν, m²/s: kinematic viscosity (docs/math.md, "Viscosity: the viscous stress at every
@@ -246,6 +262,8 @@ struct StepReport {
     Index limitedPoints = 0;        ///< points whose δΓ the limiter scaled down
     int reconstructIterations = 0;  ///< CG iterations of the displacement solve
     int volumeIterations = 0;       ///< Gauss-Newton iterations of the volume projection
+    int solveIterations = 0;        ///< StepSolver::One: the solve's sweeps (cell_solve.hpp)
+    bool solveConverged = true;     ///< ... and whether it reached its tolerance within its cap
     bool volumeConverged = true;
     std::string fault;                      ///< numerical trouble ("stage: what"); empty when none
     FaultKind faultKind = FaultKind::None;  ///< which trouble; None exactly when fault is empty
@@ -329,6 +347,8 @@ public:
     /// Plasticity: the flex's rest stretch P (identity when off or not yielded) and the twist's
     /// rest connection Γ_p (empty when off).
     const Mat3& plasticFlex() const { return mPlasticFlex; }
+    /// StepSolver::One with plasticity: each cell's rest stretch P (#C; empty otherwise).
+    const std::vector<Mat3>& cellRest() const { return mCellRest; }
     const std::array<std::vector<Mat3>, 3>& plasticGamma() const { return mPlasticGamma; }
     Real gammaYield() const { return mGammaYield; }  ///< the yield of |Γ − Γ_p| per lattice step (0: off)
     /// The pinned body's load modes (empty when none) and their amplitudes q (m) and rates q̇.
@@ -347,6 +367,23 @@ public:
     void restoreState(DeformableBodyState state);
 
 private:
+    // StepSolver::One (stepper_one.cpp).
+    StepReport predictOne(const ForceField& field, Real frame, Real dt);
+    StepReport finishOne(const std::vector<Collider>& colliders);
+    void yieldCells();  ///< each cell's rest stretch P returned to within the yield
+    /// A free body: the solve's result x put right so that the momenta the exact minimiser keeps
+    /// are kept to round-off (a translation and a small turn about the centre of mass).
+    void keepMomenta(const std::vector<Vec3>& inertial, std::vector<Vec3>& x) const;
+    CellSolver mCellSolver;
+    std::vector<Mat3> mCellRest;  ///< #C: each cell's rest stretch P (putty; empty when no yield)
+    Real mShear = 0;              ///< μ, Pa
+    // BDF2 (x̃ from the last two steps; docs/math.md, "The one-solve step"): the step before's
+    // positions and velocities (empty: the next step is backward Euler), and between predict and
+    // finish the extrapolated start x̂ and the step's factor β (2/3, or 1 for backward Euler).
+    std::vector<Vec3> mXBefore, mVBefore;
+    std::vector<Vec3> mXHat;
+    Real mBeta = 1;
+
     void fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& affine) const;
     /// The viscosity's implicit decay of the flex's strain rate over a leapfrog kick (stepper.cpp).
     void viscousFlexKick(Real kick);

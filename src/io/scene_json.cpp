@@ -440,6 +440,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             if (ways > 1) m.fail(m.has("sag") ? "sag" : "wobble_hz", "give one of 'stiffness', 'wobble_hz' and 'sag'");
             if (m.has("damping") && m.has("wobbles")) m.fail("wobbles", "give 'damping' or 'wobbles', not both");
             mat.density = m.number("density", mat.density, 0, HUGE_VAL, true);
+            mat.solver = m.choiceOf("solver", mat.solver,
+                                    {{"chain", MaterialDesc::Solver::Chain}, {"one", MaterialDesc::Solver::One}});
             if (m.has("stiffness")) {
                 mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
                 mat.stiffness = m.number("stiffness", 0, 0, 1e8);

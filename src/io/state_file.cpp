@@ -155,6 +155,9 @@ void writeBody(W& w, const DeformableBodyState& s) {
     w.array(s.volumeLambdaPrev);
     w.array(s.volumeCachePositions);
     w.array(s.volumeCachePinned);
+    w.array(s.positionsBefore);
+    w.array(s.velocitiesBefore);
+    w.array(s.cellRest);
 }
 
 /// A bool stored as one byte: 0 or 1, anything else is malformed.
@@ -194,6 +197,9 @@ void readBody(Reader& r, DeformableBodyState& s) {
     r.array(s.volumeLambdaPrev);
     r.array(s.volumeCachePositions);
     r.array(s.volumeCachePinned);
+    r.array(s.positionsBefore);
+    r.array(s.velocitiesBefore);
+    r.array(s.cellRest);
 }
 
 std::size_t headerSize(const std::string& version) {
@@ -435,6 +441,8 @@ std::uint64_t sceneDynamicsKey(const SceneDesc& scene, const std::vector<const L
             std::ifstream in(path, std::ios::binary);
             f.text(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
         }
+    for (const ObjectDesc& o : scene.objects)  // the step's solver (set by the file or by --solver)
+        f.value(static_cast<std::int32_t>(o.material.solver));
     for (const ObjectDesc& o : scene.objects)  // a pinned vertex group's vertices (resolved from the mesh file)
         if (!o.pin.groupVertices.empty()) f.add(o.pin.groupVertices.data(), o.pin.groupVertices.size() * sizeof(Vec3));
     f.value(static_cast<std::uint64_t>(lattices.size()));

@@ -5,7 +5,7 @@
 /// needs to continue bit-identically from that frame (dynamics/body_state.hpp), the stats.csv
 /// rows of the frames so far, and the renderer's per-point contact history.
 ///
-/// Format (version 9; all integers and reals in the machine's byte order, which the header
+/// Format (version 10; all integers and reals in the machine's byte order, which the header
 /// records, reals as IEEE doubles):
 ///   "DGVSTATE" | u32 format version | u32 0x01020304 (byte order) | u32 sizeof(Real)
 ///   | str dgv version | u64 scene key | i32 frame | u64 payload bytes | u64 payload checksum
@@ -30,9 +30,10 @@
 namespace dgv {
 
 inline constexpr std::uint32_t kStateFormatVersion =
-    9;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load
-        ///< modes' amplitudes; 6: the volume multipliers' prediction; 7: the time in free flight; 8: a re-parametrised
-        ///< body's lattice and surface; 9: the payload's checksum over 64-bit words (stateChecksum)
+    10;  ///< 2: the displacement of the step before; 3: plasticity's rest shape; 4: the last step's length; 5: the load
+         ///< modes' amplitudes; 6: the volume multipliers' prediction; 7: the time in free flight; 8: a re-parametrised
+         ///< body's lattice and surface; 9: the payload's checksum over 64-bit words (stateChecksum); 10: the one-solve
+         ///< step's rest stretches and the step before's positions and velocities (StepSolver::One)
 
 /// The payload's checksum: FNV-1a's step on four lanes of 64-bit words, folded and mixed
 /// (state_file.cpp): 3.5 ms for 14 MB, where byte-wise FNV-1a took 17 ms.

@@ -48,6 +48,9 @@ struct PrimitiveDesc {
 struct MaterialDesc {
     enum class StiffnessFrom { Value, WobbleHz, Sag };
     Real density = 1000;  ///< kg/m^3
+    /// How each substep is solved (DynamicsSettings::solver): the notes' stages in turn ("chain",
+    /// the default) or one minimisation ("one"; docs/math.md, "The one-solve step").
+    enum class Solver { Chain, One } solver = Solver::Chain;
     Real damping = 1;     ///< 1/s: twist and flex stretch rates decay as exp(-damping t)
     Real viscosity = 0;   ///< m²/s: kinematic viscosity (DynamicsSettings::viscosity)
     StiffnessFrom stiffnessFrom = StiffnessFrom::Sag;

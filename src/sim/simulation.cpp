@@ -71,6 +71,7 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         const Lattice& lat = *lattices[i];
         DynamicsSettings set;
         set.density = o.material.density;
+        set.solver = o.material.solver == MaterialDesc::Solver::One ? StepSolver::One : StepSolver::Chain;
         {
             Real yMin = std::numeric_limits<Real>::infinity(), yMax = -yMin;
             for (Index p = 0; p < lat.size(); ++p) {
@@ -732,6 +733,8 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
             s.contactSetSize += r.contacts;
             s.contactTruth += r.contactTruth;
             s.contactTruePositive += r.contactTruePositive;
+            s.solveIterations = std::max(s.solveIterations, r.solveIterations);
+            s.solveUnconverged += r.solveConverged ? 0 : 1;
             if (first) s.lastStep = r;
             first = false;
         }
@@ -835,7 +838,7 @@ void Simulation::restoreState(int frame, std::vector<ObjectState> states) {
 std::string statsCsvHeader() {
     return "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
            "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps,"
-           "flipped_triangles,torn_edges,surface_stretch,reparametrisations";
+           "flipped_triangles,torn_edges,surface_stretch,reparametrisations,solve_iterations,solve_unconverged";
 }
 
 Real FrameStats::contactPrecision() const {
@@ -849,12 +852,13 @@ Real FrameStats::contactRecall() const {
 std::string statsCsvRow(const FrameStats& s) {
     char buf[640];
     std::snprintf(buf, sizeof buf,
-                  "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d,%lld,%lld,%.4g,%lld", s.frame,
+                  "%d,%.6f,%.9g,%.9g,%.3e,%.3e,%lld,%lld,%lld,%.3f,%.4g,%.4g,%.4g,%d,%lld,%lld,%.4g,%lld,%d,%lld", s.frame,
                   s.time, s.kineticEnergy, s.sumDeltaGamma2, s.maxCellVolumeError, s.totalVolumeDrift,
                   static_cast<long long>(s.invertedCells), static_cast<long long>(s.contacts),
                   static_cast<long long>(s.limitedPoints), s.stepMs, s.maxPenetration, s.contactPrecision(),
                   s.contactRecall(), s.substeps, static_cast<long long>(s.flippedTriangles),
-                  static_cast<long long>(s.tornEdges), s.surfaceStretch, static_cast<long long>(s.reparametrisations));
+                  static_cast<long long>(s.tornEdges), s.surfaceStretch, static_cast<long long>(s.reparametrisations),
+                  s.solveIterations, static_cast<long long>(s.solveUnconverged));
     return buf;
 }
 

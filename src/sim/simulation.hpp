@@ -60,6 +60,10 @@ struct FrameStats {
     /// Bodies re-voxelised in their current shape at the frame's start (docs/math.md,
     /// "Re-parametrisation").
     Index reparametrisations = 0;
+    /// StepSolver::One: the most iterations a substep's solve took over the frame's substeps and
+    /// bodies, and how many of those solves stopped at the iteration cap (0 with the chain).
+    int solveIterations = 0;
+    Index solveUnconverged = 0;
 };
 
 class GlnNetwork;

@@ -149,14 +149,14 @@ TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cach
     CHECK(line ==
           "frame,time,kinetic_energy,sum_dgamma2,max_cell_volume_error,total_volume_drift,inverted_cells,"
           "contacts,limited_points,step_ms,max_penetration,contact_precision,contact_recall,substeps,"
-          "flipped_triangles,torn_edges,surface_stretch,reparametrisations");
+          "flipped_triangles,torn_edges,surface_stretch,reparametrisations,solve_iterations,solve_unconverged");
     int rows = 0;
     while (std::getline(f, line)) {
         ++rows;
         std::vector<double> v;
         std::stringstream ss(line);
         for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-        REQUIRE(v.size() == 18);
+        REQUIRE(v.size() == 20);
         CHECK(v[0] == rows);                  // frames 1..4
         CHECK(v[4] <= 1e-4);                  // max_cell_volume_error
         CHECK(std::abs(v[5]) <= 1e-6);        // total_volume_drift
@@ -169,6 +169,8 @@ TEST_CASE("cli: simulate writes stats.csv with the volume columns and a VDB cach
         CHECK(v[16] < 4);
         if (rows > 1) CHECK(v[16] > 0.5);
         CHECK(v[17] == 0);  // reparametrisations: a pinned column keeps its lattice
+        CHECK(v[18] == 0);  // solve_iterations: the chain's step has no one solve
+        CHECK(v[19] == 0);  // solve_unconverged
     }
     CHECK(rows == 4);
     for (int frame = 1; frame <= 4; ++frame)
