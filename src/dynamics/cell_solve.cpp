@@ -5,6 +5,7 @@
 #include "base/parallel.hpp"
 #include "dynamics/stepper.hpp"
 
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 
 #include <algorithm>
@@ -88,6 +89,20 @@ std::array<Vec3, 8> gather(const LatticeCells& cells, const std::vector<Vec3>& x
     std::array<Vec3, 8> out;
     for (std::size_t k = 0; k < 8; ++k) out[k] = x[at(cells.corners[at(c)][k])];
     return out;
+}
+
+/// Turns the rotation q toward the polar rotation of M (Müller, Bender, Chentanez and Macklin's
+/// iteration: the rotation whose columns best align with M's, a few steps from a warm start).
+void turnToward(const Mat3& M, Eigen::Quaternion<Real>& q) {
+    for (int i = 0; i < 3; ++i) {
+        const Mat3 R = q.toRotationMatrix();
+        const Vec3 w = (R.col(0).cross(M.col(0)) + R.col(1).cross(M.col(1)) + R.col(2).cross(M.col(2))) /
+                       (std::abs(R.col(0).dot(M.col(0)) + R.col(1).dot(M.col(1)) + R.col(2).dot(M.col(2))) + Real(1e-12));
+        const Real angle = w.norm();
+        if (angle < Real(1e-12)) break;
+        q = Eigen::Quaternion<Real>(Eigen::AngleAxis<Real>(angle, w / angle)) * q;
+        q.normalize();
+    }
 }
 
 }  // namespace
@@ -198,6 +213,7 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
     contact.assign(at(n), 0);
 
     std::vector<Mat3> rotP(at(nc)), rotV(eta > 0 ? at(nc) : 0);  // R_c P_c⁻ᵀ and R̃_c
+    std::vector<Eigen::Quaternion<Real>> qP(at(nc)), qV(eta > 0 ? at(nc) : 0);
     std::vector<Real> kappa(at(nc));
     parallelFor(nc, [&](Index c) { kappa[at(c)] = set.volumeStiffness * scale * v0[at(c)]; });
 
@@ -254,7 +270,7 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
             }
             // The four corner Jacobians this point enters: its own corner's and, as their
             // neighbour, those of the corners beside it.
-            const Real kb = scale * v0[at(c)];
+            const Real kb = set.cornerStiffness * scale * v0[at(c)];
             for (int role = 0; role < 4; ++role) {
                 const int corner = role == 0 ? s.corner : (s.corner ^ (1 << (role - 1)));
                 Vec3 dc;
@@ -313,25 +329,31 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
     CellSolveReport report;
     const Index grain = 64;
     for (int it = 0; it < set.maxIterations; ++it) {
+        // The cells' rotations: from the polar decomposition (SVD) on the first sweep, then turned
+        // toward the current frames by the warm-started iteration, as the sweeps move them little.
         parallelFor(
             nc,
             [&](Index c) {
-                const std::array<Vec3, 8> xc = gather(cells, x, c);
-                const Mat3 F = centreFrame(xc, h);
+                const Mat3 F = centreFrame(gather(cells, x, c), h);
                 if (mu > 0) {
-                    if (in.restStretch) {
-                        const Mat3 R = polarRotationOf(F * pInv[at(c)]);
-                        rotP[at(c)] = R * pInv[at(c)].transpose();
-                    } else {
-                        rotP[at(c)] = polarRotationOf(F);
-                    }
+                    const Mat3 M = in.restStretch ? Mat3(F * pInv[at(c)]) : F;
+                    if (it == 0) qP[at(c)] = Eigen::Quaternion<Real>(polarRotationOf(M));
+                    else turnToward(M, qP[at(c)]);
+                    rotP[at(c)] = in.restStretch ? Mat3(qP[at(c)].toRotationMatrix() * pInv[at(c)].transpose())
+                                                 : qP[at(c)].toRotationMatrix();
                 }
                 if (eta > 0) {
                     const Mat3& F0 = startFrame[at(c)];
                     const Real det0 = F0.determinant();
                     // the rotation over the step: of F F⁻⁻¹ (its adjugate: the same rotation)
-                    rotV[at(c)] = det0 > 0 ? polarRotationOf(F * (det0 * F0.inverse()))
-                                           : Mat3(polarRotationOf(F) * polarRotationOf(F0).transpose());
+                    const Mat3 M = det0 > 0 ? Mat3(F * (det0 * F0.inverse())) : F;
+                    if (it == 0 || !(det0 > 0)) {
+                        qV[at(c)] = Eigen::Quaternion<Real>(
+                            det0 > 0 ? polarRotationOf(M) : Mat3(polarRotationOf(F) * polarRotationOf(F0).transpose()));
+                    } else {
+                        turnToward(M, qV[at(c)]);
+                    }
+                    rotV[at(c)] = qV[at(c)].toRotationMatrix();
                 }
             },
             grain);

@@ -43,11 +43,13 @@ struct CellSolveSettings {
     /// multipliers carry the rest of the way to C = 0.
     Real volumeStiffness = 1;
     Real cornerFloor = 0.25;  ///< the corner barrier acts below this Jacobian relative to rest
+    Real cornerStiffness = 1;  ///< κ_b = cornerStiffness · (μ + μ_v/δt + ρ h²/δt²), Pa
     /// The contact penalty per point, contactStiffness · m_p / δt² (N/m): a point's weight held at
     /// a depth of g δt² / contactStiffness.
     Real contactStiffness = 1e3;
-    Real tolerance = 1e-4;       ///< stop when no point moved more than tolerance · h in a sweep ...
-    Real volumeTolerance = 1e-4; ///< ... and every cell is within this of its rest volume
+    Real tolerance = 1e-3;       ///< stop when no point moved more than tolerance · h in a sweep ...
+    /// ... and every cell is within this of its rest volume (the exact projection takes the rest).
+    Real volumeTolerance = 1e-3;
     int maxIterations = 200;
     Real density = 1000;  ///< ρ, kg/m³ (the inertia's scale in κ_c)
 };

@@ -117,7 +117,7 @@ Index MeshEmbedding::fittedVertices() const {
     return n;
 }
 
-MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVertices) {
+MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVertices, bool fitOutside) {
     DGV_CHECK_GT(lat.size(), Index(0));
     MeshEmbedding emb;
     const std::size_t nv = restVertices.size();
@@ -174,7 +174,7 @@ MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVer
         }
         emb.anchor[v] = anchor;
         emb.offset[v] = u - lat.coords[at(anchor)].cast<Real>();
-        const Real blend = full ? Real(0) : fitBlendAt(emb.offset[v].norm());
+        const Real blend = full ? Real(0) : fitOutside ? Real(1) : fitBlendAt(emb.offset[v].norm());
         if (blend > 0 && neighbourhoodFit(lat, anchor, u, fitPoints[v], fitWeights[v])) {
             emb.fitBlend[v] = blend;
         } else {

@@ -62,7 +62,10 @@ struct MeshEmbedding {
 /// the affine least-squares fit over the material points within kFitRadius of its anchor
 /// (reached through the 6-neighbour network), weighted (1 - r²/R²)² by their distance r from
 /// the anchor; it is skipped (s = 0) where those points do not span 3-D (a one-voxel sheet).
-MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVertices);
+/// fitOutside: every vertex outside the cells follows its neighbourhood's fit wholly (the
+/// one-solve step's bodies: a boundary layer pressed onto a collider has rough frames at the
+/// lattice scale, which the anchor's frame extrapolates into folds).
+MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVertices, bool fitOutside = false);
 
 /// Deformed vertex positions (world units) from the current state (positions, tangent frames
 /// and second derivatives); `vertices` is resized to emb.size(). In parallel.

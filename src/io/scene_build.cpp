@@ -104,7 +104,8 @@ BuiltObject buildObject(const SceneDesc& scene, int index, std::size_t memoryBud
     // material lattice"); the mesh's vertices near a dropped voxel follow the nearest kept point.
     obj.lattice = withoutLoosePoints(obj.lattice, &obj.loosePoints);
     computeGeometricState(obj.lattice, restPositions(obj.lattice), obj.state);
-    obj.embedding = embedVertices(obj.lattice, obj.restMesh.vertices);
+    obj.embedding =
+        embedVertices(obj.lattice, obj.restMesh.vertices, desc.material.solver == MaterialDesc::Solver::One);
     return obj;
 }
 
@@ -168,8 +169,9 @@ std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb) {
 
 std::string unresolvedWarning(const BuiltObject& o) {
     Index far = 0;
-    for (const Real s : o.embedding.fitBlend) far += s >= 1 ? 1 : 0;
     const std::size_t nv = o.embedding.size();
+    for (std::size_t v = 0; v < nv; ++v)
+        far += !o.embedding.trilinear(v) && o.embedding.offset[v].norm() >= kFitFull ? 1 : 0;
     if (nv == 0 || Real(far) < kUnresolvedShare * Real(nv)) return {};
     char buf[512];
     std::snprintf(buf, sizeof buf,

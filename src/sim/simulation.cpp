@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 
 namespace dgv {
@@ -537,6 +538,9 @@ int Simulation::frameSubsteps(int frame) const {
             b->lattice().size(), Real(0), [&](Real& acc, Index p) { acc = std::max(acc, v[at(p)].norm()); },
             [](Real x, Real y) { return std::max(x, y); });
         need = std::max(need, fastest * frameTime / (mScene.cfl * b->lattice().spacing));
+        // The one-solve step is implicit in every force of the body: only the motion per substep
+        // bounds it (how far a point may travel into a collider or another body in one solve).
+        if (b->settings().solver == StepSolver::One) continue;
         ForceSamples fs;
         mField.sample(b->positions(), frame - 1, ForceOrder::Value, fs);
         const Real strongest = parallelReduce(

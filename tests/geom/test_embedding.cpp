@@ -153,6 +153,52 @@ TEST_CASE("embedding: rest positions reproduced, affine motions and rotations ex
     }
 }
 
+TEST_CASE("embedding: fitted outside the cells, rest and affine motions stay exact and the fit is smooth", "[geom]") {
+    // fitOutside (the one-solve step's bodies): every vertex outside the cells follows its
+    // neighbourhood's affine fit, which reproduces any affine motion exactly, and a rough boundary
+    // layer (its points jittered by a tenth of a voxel) moves the fitted vertices less than the
+    // anchors' frames move them.
+    const Lattice lat = ballLattice(0.1);
+    std::vector<Vec3> verts = sampleVertices(1.0, 400);
+    const MeshEmbedding fit = embedVertices(lat, verts, true);
+    const MeshEmbedding frames = embedVertices(lat, verts);
+    std::size_t outside = 0;
+    for (std::size_t v = 0; v < fit.size(); ++v) outside += fit.trilinear(v) ? 0 : 1;
+    REQUIRE(outside > 100);
+    const std::vector<Vec3> rest = restPositions(lat);
+    GeometricState st;
+    std::vector<Vec3> moved;
+    computeGeometricState(lat, rest, st);
+    deformVertices(fit, st, moved);
+    CHECK(maxError(moved, verts) < 1e-12);
+    const Mat3 a = (Mat3() << 1.3, 0.2, -0.1, 0.1, 0.8, 0.3, -0.2, 0.1, 1.1).finished();
+    const Vec3 b(0.3, -1, 2);
+    std::vector<Vec3> x(rest.size());
+    for (std::size_t p = 0; p < x.size(); ++p) x[p] = a * rest[p] + b;
+    computeGeometricState(lat, x, st);
+    deformVertices(fit, st, moved);
+    std::vector<Vec3> expected(verts.size());
+    for (std::size_t v = 0; v < verts.size(); ++v) expected[v] = a * verts[v] + b;
+    CHECK(maxError(moved, expected) < 1e-12);
+    // jitter: every point moved by up to a tenth of a voxel
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<Real> d(-0.1, 0.1);
+    for (Vec3& p : x) p = p + lat.spacing * Vec3(d(rng), d(rng), d(rng));
+    computeGeometricState(lat, x, st);
+    std::vector<Vec3> byFit, byFrames;
+    deformVertices(fit, st, byFit);
+    deformVertices(frames, st, byFrames);
+    Real worstFit = 0, worstFrames = 0;
+    for (std::size_t v = 0; v < verts.size(); ++v) {
+        if (fit.trilinear(v)) continue;
+        worstFit = std::max(worstFit, (byFit[v] - expected[v]).norm());
+        worstFrames = std::max(worstFrames, (byFrames[v] - expected[v]).norm());
+    }
+    INFO("worst displacement by the jitter: fit " << worstFit << ", frames " << worstFrames);
+    CHECK(worstFit < 0.2 * lat.spacing);
+    CHECK(worstFit < 0.5 * worstFrames);
+}
+
 TEST_CASE("embedding: second-order anchors follow a bend better than first-order", "[geom]") {
     // Bend the ball about the z axis through (0, -4, 0): a smooth non-affine map.
     const Lattice lat = ballLattice(0.1);
