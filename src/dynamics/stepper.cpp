@@ -59,14 +59,6 @@ void stepRotation(const Mat3& G, Vec3& axis, Real& angle) {
     angle = std::asin(std::min(s, Real(1)));
 }
 
-/// Polar rotation of an invertible matrix (proper when det > 0).
-Mat3 polarRotation(const Mat3& A) {
-    const Eigen::JacobiSVD<Mat3> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Mat3 U = svd.matrixU();
-    const Mat3 V = svd.matrixV();
-    if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
-    return U * V.transpose();
-}
 
 /// The part of a change δA of the affine part that keeps det A to first order, in the kinetic
 /// metric tr(δA S δAᵀ): δA − (⟨A⁻ᵀ, δA⟩ / ⟨A⁻ᵀ, A⁻ᵀS⁻¹⟩) A⁻ᵀS⁻¹ (tr(A⁻¹δA) = ⟨A⁻ᵀ, δA⟩).
@@ -625,9 +617,9 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
             // shape (small P_yy) resists a further squash more (docs/math.md, "Plasticity").
             const Mat3 Pinv = mPlasticFlex.inverse();
             const Mat3 elastic = mA * Pinv;
-            flexAccel -= mSet.shapeStiffness * (elastic - polarRotation(elastic)) * Pinv.transpose();
+            flexAccel -= mSet.shapeStiffness * (elastic - polarRotationOf(elastic)) * Pinv.transpose();
         } else {
-            flexAccel -= mSet.shapeStiffness * (mA - polarRotation(mA));
+            flexAccel -= mSet.shapeStiffness * (mA - polarRotationOf(mA));
         }
     }
     if (mSet.damping > 0) flexAccel -= mSet.damping * Real(0.5) * (L0 + L0.transpose()) * mA;
