@@ -208,7 +208,7 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
     for (Index p = 0; p < n; ++p)
         if (mPinned[at(p)]) x[at(p)] = x0[at(p)];
 
-    // The colliders' depth at the first guess (the renderer's ramp).
+    // Filled at the end: the points a collider holds, and how deep they were at x̃ (the renderer's ramp).
     depth.assign(at(n), 0);
     contact.assign(at(n), 0);
 
