@@ -75,8 +75,7 @@ int runInfo(const InfoOptions& options) {
                 static_cast<long long>(kept.size()), static_cast<long long>(loose));
     if (kept.size() > 0 && !mesh.vertices.empty()) {
         const MeshEmbedding emb = embedVertices(kept, mesh.vertices);
-        Index far = 0;
-        for (const Real s : emb.fitBlend) far += s >= 1 ? 1 : 0;
+        const Index far = emb.farVertices();
         std::printf(
             "unresolved_vertices: %lld of %zu  (%.1f voxels or more from the lattice: thinner than it "
             "resolves)\n",

@@ -111,6 +111,12 @@ bool neighbourhoodFit(const Lattice& lat, Index anchor, const Vec3& u, std::vect
 
 }  // namespace
 
+Index MeshEmbedding::farVertices() const {
+    Index n = 0;
+    for (std::size_t v = 0; v < size(); ++v) n += !trilinear(v) && offset[v].norm() >= kFitFull ? 1 : 0;
+    return n;
+}
+
 Index MeshEmbedding::fittedVertices() const {
     Index n = 0;
     for (const Real s : fitBlend) n += s > 0 ? 1 : 0;

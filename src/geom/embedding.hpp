@@ -53,6 +53,9 @@ struct MeshEmbedding {
     bool trilinear(std::size_t v) const { return corners[v][0] != kNoPoint; }
     /// How many vertices follow a neighbourhood fit at all (fitBlend > 0).
     Index fittedVertices() const;
+    /// How many vertices lie kFitFull voxels or more from their anchor (parts thinner than the
+    /// lattice resolves), whatever rule carries them.
+    Index farVertices() const;
 };
 
 /// Embeds rest vertices (world units) in the lattice, in parallel. Requires lat.size() > 0.

@@ -168,10 +168,8 @@ std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb) {
 }
 
 std::string unresolvedWarning(const BuiltObject& o) {
-    Index far = 0;
+    const Index far = o.embedding.farVertices();
     const std::size_t nv = o.embedding.size();
-    for (std::size_t v = 0; v < nv; ++v)
-        far += !o.embedding.trilinear(v) && o.embedding.offset[v].norm() >= kFitFull ? 1 : 0;
     if (nv == 0 || Real(far) < kUnresolvedShare * Real(nv)) return {};
     char buf[512];
     std::snprintf(buf, sizeof buf,
