@@ -26,9 +26,9 @@ namespace {
 
 /// A ball of 4 voxels (h = 0.05 m), 24 fps, with the given extra top-level keys and material.
 SceneDesc ballScene(const test::TempDir& dir, const std::string& top, const std::string& material,
-                    const std::string& rest) {
+                    const std::string& rest, int lastFrame = 96) {
     return parseScene(
-        R"({"frames": {"start": 1, "end": 96, "fps": 24})" + top +
+        R"({"frames": {"start": 1, "end": )" + std::to_string(lastFrame) + R"(, "fps": 24})" + top +
             R"(, "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.2}, "material": {)" +
             material + "}" + rest,
         dir.path() / "s.json");
@@ -168,12 +168,16 @@ TEST_CASE("substeps: a jelly dropped at the default substeps lands and rests, wh
         CHECK_THAT(e.what(), Catch::StartsWith("dynamics [" + std::string(faultKindName(e.kind())) + "]: frame "));
     }
     CHECK(folded);
-    // Adaptive (the default): it lands and rests within the volume goals.
-    const SceneDesc adaptive = ballScene(dir, "", material, rest);
+    // Adaptive (the default): it lands and rests within the volume goals. The landing bounces
+    // (up to 16 substeps a frame) and the rocking after it decays by about a decade every 16
+    // frames, from wherever the bounce left it: libm's rounding on one machine or another moves
+    // the bounce, and the rest at frame 96 measured 1e-10 J on one machine and 3e-5 J on another.
+    // So the ball gets 8 s, and must be still to within 1e-8 J by then (measured 7e-10 J).
+    const SceneDesc adaptive = ballScene(dir, "", material, rest, 192);
     Simulation b(adaptive, {&lat});
     Real maxCell = 0;
     FrameStats last;
-    for (int f = 2; f <= 96; ++f) {
+    for (int f = 2; f <= 192; ++f) {
         last = b.advanceTo(f);
         maxCell = std::max(maxCell, last.maxCellVolumeError);
         CHECK(last.invertedCells == 0);
@@ -181,7 +185,7 @@ TEST_CASE("substeps: a jelly dropped at the default substeps lands and rests, wh
     CHECK(last.substeps == 2);
     CHECK(maxCell <= 1e-4);
     CHECK(std::abs(last.totalVolumeDrift) <= 1e-6);
-    CHECK(last.kineticEnergy < 1e-6);  // at rest on the ground (measured 1e-10 J)
+    CHECK(last.kineticEnergy < 1e-8);  // at rest on the ground
 }
 
 TEST_CASE("substeps: the twist keeps its rate when the step length changes", "[dynamics][substeps]") {
