@@ -137,6 +137,7 @@ MeshDistance::MeshDistance(const TriangleMesh& mesh) {
         }
         tr.faceNormal = faceNormal[f];
         tr.edgeNormal = edgeNormal[f];
+        tr.source = static_cast<int>(f);
         centroids[f] = (tr.v[0] + tr.v[1] + tr.v[2]) / 3;
     }
     std::vector<Box3> boxes(t);
@@ -150,14 +151,18 @@ MeshDistance::MeshDistance(const TriangleMesh& mesh) {
 }
 
 Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient, Real beyond) const {
-    if (mTriangles.empty()) {
-        if (gradient) *gradient = Vec3::UnitY();
-        return std::numeric_limits<Real>::infinity();
-    }
+    const Closest c = closest(x, beyond);
+    if (gradient) *gradient = c.gradient;
+    return c.distance;
+}
+
+MeshDistance::Closest MeshDistance::closest(const Vec3& x, Real beyond) const {
+    Closest out;
+    if (mTriangles.empty()) return out;
     if (const Real b2 = boxDistance2(mBounds, x); b2 > beyond * beyond) {
-        const Real b = std::sqrt(b2);
-        if (gradient) *gradient = (x - x.cwiseMax(mBounds.min).cwiseMin(mBounds.max)) / b;
-        return b;
+        out.distance = std::sqrt(b2);
+        out.gradient = (x - x.cwiseMax(mBounds.min).cwiseMin(mBounds.max)) / out.distance;
+        return out;
     }
     Real best = std::numeric_limits<Real>::infinity();
     Nearest nearest;
@@ -205,13 +210,30 @@ Real MeshDistance::signedDistance(const Vec3& x, Vec3* gradient, Real beyond) co
     const Vec3 d = x - nearest.point;
     const Real dist = std::sqrt(best);
     const Real sign = d.dot(pseudo) < 0 ? Real(-1) : Real(1);
-    if (gradient) {
-        if (dist > 1e-12 * (1 + mBounds.size().norm()))
-            *gradient = sign * d / dist;
-        else
-            *gradient = pseudo.squaredNorm() > 0 ? Vec3(pseudo.normalized()) : Vec3(Vec3::UnitY());
+    if (dist > 1e-12 * (1 + mBounds.size().norm()))
+        out.gradient = sign * d / dist;
+    else
+        out.gradient = pseudo.squaredNorm() > 0 ? Vec3(pseudo.normalized()) : Vec3(Vec3::UnitY());
+    out.distance = sign * dist;
+    out.triangle = tr.source;
+    // The nearest point's barycentric coordinates: by areas on the face, exact on an edge or
+    // a vertex (the point lies on it).
+    const Vec3 e0 = tr.v[1] - tr.v[0], e1 = tr.v[2] - tr.v[0], r = nearest.point - tr.v[0];
+    const Real d00 = e0.dot(e0), d01 = e0.dot(e1), d11 = e1.dot(e1), den = d00 * d11 - d01 * d01;
+    if (den > 0) {
+        const Real b1 = std::clamp((d11 * e0.dot(r) - d01 * e1.dot(r)) / den, Real(0), Real(1));
+        const Real b2 = std::clamp((d00 * e1.dot(r) - d01 * e0.dot(r)) / den, Real(0), 1 - b1);
+        out.barycentric = Vec3(1 - b1 - b2, b1, b2);
+    } else {
+        // a degenerate triangle: the nearest vertex
+        int k = 0;
+        for (int i = 1; i < 3; ++i)
+            if ((tr.v[static_cast<std::size_t>(i)] - nearest.point).squaredNorm() <
+                (tr.v[static_cast<std::size_t>(k)] - nearest.point).squaredNorm())
+                k = i;
+        out.barycentric = Vec3::Unit(k);
     }
-    return sign * dist;
+    return out;
 }
 
 }  // namespace dgv

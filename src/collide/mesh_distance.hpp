@@ -44,12 +44,23 @@ public:
     Real signedDistance(const Vec3& x, Vec3* gradient = nullptr,
                         Real beyond = std::numeric_limits<Real>::infinity()) const;
 
+    /// The nearest point of the mesh to a query, with what signedDistance gives.
+    struct Closest {
+        Real distance = std::numeric_limits<Real>::infinity();  ///< signed, negative inside
+        Vec3 gradient = Vec3::UnitY();                           ///< as signedDistance's
+        int triangle = -1;                   ///< the nearest triangle's index in the mesh (−1: beyond or empty)
+        Vec3 barycentric = Vec3::Zero();     ///< of the nearest point on that triangle's vertices
+    };
+    /// As signedDistance; beyond `beyond` (or for an empty mesh) triangle is −1.
+    Closest closest(const Vec3& x, Real beyond = std::numeric_limits<Real>::infinity()) const;
+
 private:
     struct Tri {
         std::array<Vec3, 3> v;
         Vec3 faceNormal;                 ///< unit (zero for a degenerate triangle)
         std::array<Vec3, 3> edgeNormal;  ///< edge k runs from v[k] to v[(k+1)%3]
         std::array<Vec3, 3> vertexNormal;
+        int source = 0;  ///< the triangle's index in the mesh
     };
     std::vector<Tri> mTriangles;  ///< in the hierarchy's leaf order
     BoxTree mTree;                ///< over the triangles (centroid splits, leaves of 4)

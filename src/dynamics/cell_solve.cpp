@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 namespace dgv {
 
@@ -150,51 +151,67 @@ CellSolver::CellSolver(const Lattice& lat, const LatticeCells& cells, std::vecto
     }
 }
 
-CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSettings& set, std::vector<Vec3>& x,
-                                  std::vector<Real>& lambda, std::vector<unsigned char>& contact,
-                                  std::vector<Real>& depth) const {
-    const LatticeCells& cells = *mCells;
-    const UnitCube& cube = unitCube();
-    const Index n = static_cast<Index>(mMass.size()), nc = cells.size();
-    const Real h = mH, h3 = h * h * h, dt = in.dt;
-    const std::vector<Vec3>& x0 = *in.start;
-    const std::vector<Vec3>& xt = *in.inertial;
-    const std::vector<Real>& v0 = *in.restVolumes;
-    const std::vector<Collider> noColliders;
-    const std::vector<Collider>& colliders = in.colliders ? *in.colliders : noColliders;
-    const Real mu = set.shearModulus, eta = set.viscosity / dt;
-    const Real scale = mu + eta + set.density * h * h / (dt * dt);  // Pa: the stiffest term at the lattice scale
-    const Barrier barrier{set.cornerFloor};
-    if (lambda.size() != at(nc)) lambda.assign(at(nc), 0);
-    Real meanMass = 0;
-    for (Real m : mMass) meanMass += m / static_cast<Real>(std::max<Index>(n, 1));
-    auto marginOf = [&](std::size_t ci) { return in.margins && ci < in.margins->size() ? (*in.margins)[ci] : Real(0); };
-    auto massOf = [&](Index p) { return mMass[at(p)] > 0 ? mMass[at(p)] : Real(1e-3) * meanMass; };
+/// One member's state over a solve: what is constant over it (per cell: the rest metric, the
+/// start's reference for the viscosity, the volume stiffness), the cells' rotations, and the
+/// body contacts each point enters.
+struct CellSolver::Run {
+    const CellSolver& solver;
+    const CellSolveInput& in;
+    const CellSolveSettings& set;
+    std::vector<Vec3>& x;
+    std::vector<Real>& lambda;
+    const std::vector<Collider>& colliders;
+    Real h, h3, dt, mu, eta, scale, meanMass = 0;
+    std::vector<Mat3> pInv, metric;
+    std::vector<std::array<Vec3, 8>> startLap;
+    std::vector<Mat3> startFrame;
+    std::vector<Mat3> rotP, rotV;  ///< R_c P_c⁻ᵀ and R̃_c
+    std::vector<Eigen::Quaternion<Real>> qP, qV;
+    std::vector<Real> kappa;
+    /// The body contacts point p enters (CSR over the points): the contact's index, and the
+    /// point's role in it, e: 1 for the contact's own point, −w_j for the surface's vertex j
+    /// (the contact's gap d falls by e n · dx when the point moves by dx).
+    std::vector<Index> linkStart;
+    std::vector<std::pair<Index, Real>> links;
 
-    // Per cell, constant over the solve: the metric M = P⁻¹P⁻ᵀ of the rest shape, and the
-    // start's Σ_j L̂_jk x⁻_j per corner (the viscous term's reference).
-    std::vector<Mat3> pInv(in.restStretch ? at(nc) : 0), metric(in.restStretch ? at(nc) : 0);
-    if (in.restStretch)
-        parallelFor(nc, [&](Index c) {
-            pInv[at(c)] = (*in.restStretch)[at(c)].inverse();
-            metric[at(c)] = pInv[at(c)] * pInv[at(c)].transpose();
-        });
-    std::vector<std::array<Vec3, 8>> startLap(eta > 0 ? at(nc) : 0);
-    std::vector<Mat3> startFrame(eta > 0 ? at(nc) : 0);
-    if (eta > 0)
-        parallelFor(nc, [&](Index c) {
-            const std::array<Vec3, 8> xc = gather(cells, x0, c);
-            for (std::size_t k = 0; k < 8; ++k) {
-                Vec3 s = Vec3::Zero();
-                for (std::size_t j = 0; j < 8; ++j) s += cube.L[j][k] * xc[j];
-                startLap[at(c)][k] = s;
-            }
-            startFrame[at(c)] = centreFrame(xc, h);
-        });
-
-    // The first guess must keep every corner right-handed where the start had it so (the
-    // barrier's domain): x̃ where it does, else the start.
-    {
+    Run(const CellSolver& s, const CellSolveMember& m, const std::vector<Collider>& noColliders)
+        : solver(s), in(m.in), set(m.settings), x(*m.x), lambda(*m.lambda),
+          colliders(m.in.colliders ? *m.in.colliders : noColliders) {
+        const LatticeCells& cells = *solver.mCells;
+        const UnitCube& cube = unitCube();
+        const Index n = static_cast<Index>(solver.mMass.size()), nc = cells.size();
+        h = solver.mH;
+        h3 = h * h * h;
+        dt = in.dt;
+        mu = set.shearModulus;
+        eta = set.viscosity / dt;
+        scale = mu + eta + set.density * h * h / (dt * dt);  // Pa: the stiffest term at the lattice scale
+        if (lambda.size() != at(nc)) lambda.assign(at(nc), 0);
+        for (Real mass : solver.mMass) meanMass += mass / static_cast<Real>(std::max<Index>(n, 1));
+        const std::vector<Vec3>& x0 = *in.start;
+        if (in.restStretch) {
+            pInv.resize(at(nc));
+            metric.resize(at(nc));
+            parallelFor(nc, [&](Index c) {
+                pInv[at(c)] = (*in.restStretch)[at(c)].inverse();
+                metric[at(c)] = pInv[at(c)] * pInv[at(c)].transpose();
+            });
+        }
+        if (eta > 0) {
+            startLap.resize(at(nc));
+            startFrame.resize(at(nc));
+            parallelFor(nc, [&](Index c) {
+                const std::array<Vec3, 8> xc = gather(cells, x0, c);
+                for (std::size_t k = 0; k < 8; ++k) {
+                    Vec3 sum = Vec3::Zero();
+                    for (std::size_t j = 0; j < 8; ++j) sum += cube.L[j][k] * xc[j];
+                    startLap[at(c)][k] = sum;
+                }
+                startFrame[at(c)] = centreFrame(xc, h);
+            });
+        }
+        // The first guess must keep every corner right-handed where the start had it so (the
+        // barrier's domain): x̃ where it does, else the start.
         const bool ok = parallelReduce(
             nc, true,
             [&](bool& acc, Index c) {
@@ -204,31 +221,67 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
             },
             [](bool a, bool b) { return a && b; });
         if (!ok) x = in.feasible ? *in.feasible : x0;
+        for (Index p = 0; p < n; ++p)
+            if (solver.mPinned[at(p)]) x[at(p)] = x0[at(p)];
+        rotP.resize(at(nc));
+        qP.resize(at(nc));
+        rotV.resize(eta > 0 ? at(nc) : 0);
+        qV.resize(eta > 0 ? at(nc) : 0);
+        kappa.resize(at(nc));
+        parallelFor(nc, [&](Index c) { kappa[at(c)] = set.volumeStiffness * scale * (*in.restVolumes)[at(c)]; });
+        linkStart.assign(at(n) + 1, 0);
     }
-    for (Index p = 0; p < n; ++p)
-        if (mPinned[at(p)]) x[at(p)] = x0[at(p)];
 
-    // Filled at the end: the points a collider holds, and how deep they were at x̃ (the renderer's ramp).
-    depth.assign(at(n), 0);
-    contact.assign(at(n), 0);
+    Real massOf(Index p) const {
+        return solver.mMass[at(p)] > 0 ? solver.mMass[at(p)] : Real(1e-3) * meanMass;
+    }
+    Real marginOf(std::size_t ci) const {
+        return in.margins && ci < in.margins->size() ? (*in.margins)[ci] : Real(0);
+    }
 
-    std::vector<Mat3> rotP(at(nc)), rotV(eta > 0 ? at(nc) : 0);  // R_c P_c⁻ᵀ and R̃_c
-    std::vector<Eigen::Quaternion<Real>> qP(at(nc)), qV(eta > 0 ? at(nc) : 0);
-    std::vector<Real> kappa(at(nc));
-    parallelFor(nc, [&](Index c) { kappa[at(c)] = set.volumeStiffness * scale * v0[at(c)]; });
+    /// The cells' rotations: from the polar decomposition (SVD) on the first sweep, then turned
+    /// toward the current frames by the warm-started iteration, as the sweeps move them little.
+    void rotations(int it) {
+        const LatticeCells& cells = *solver.mCells;
+        parallelFor(
+            cells.size(),
+            [&](Index c) {
+                const Mat3 F = centreFrame(gather(cells, x, c), h);
+                if (mu > 0) {
+                    const Mat3 M = in.restStretch ? Mat3(F * pInv[at(c)]) : F;
+                    if (it == 0) qP[at(c)] = Eigen::Quaternion<Real>(polarRotationOf(M));
+                    else turnToward(M, qP[at(c)]);
+                    rotP[at(c)] = in.restStretch ? Mat3(qP[at(c)].toRotationMatrix() * pInv[at(c)].transpose())
+                                                 : qP[at(c)].toRotationMatrix();
+                }
+                if (eta > 0) {
+                    const Mat3& F0 = startFrame[at(c)];
+                    const Real det0 = F0.determinant();
+                    // the rotation over the step: of F F⁻⁻¹ (its adjugate: the same rotation)
+                    const Mat3 M = det0 > 0 ? Mat3(F * (det0 * F0.inverse())) : F;
+                    if (it == 0 || !(det0 > 0)) {
+                        qV[at(c)] = Eigen::Quaternion<Real>(
+                            det0 > 0 ? polarRotationOf(M) : Mat3(polarRotationOf(F) * polarRotationOf(F0).transpose()));
+                    } else {
+                        turnToward(M, qV[at(c)]);
+                    }
+                    rotV[at(c)] = qV[at(c)].toRotationMatrix();
+                }
+            },
+            64);
+    }
 
-    // One point's Newton step (file comment); returns how far it moved.
-    auto update = [&](Index p) -> Real {
-        const Real m = massOf(p), inert = m / (dt * dt);
-        Vec3 g = inert * (x[at(p)] - xt[at(p)]);
-        Mat3 H = inert * Mat3::Identity();
-        struct Guard {
-            Real j0;
-            Vec3 dj;
-        };
-        std::array<Guard, 32> guards;
-        int guarded = 0;
-        for (const Slot& s : mSlots[at(p)]) {
+    /// The cell terms of point p's gradient and Hessian (file comment), and the corners its move
+    /// must keep right-handed.
+    struct Guard {
+        Real j0;
+        Vec3 dj;
+    };
+    void addCells(Index p, Vec3& g, Mat3& H, std::array<Guard, 32>& guards, int& guarded) const {
+        const LatticeCells& cells = *solver.mCells;
+        const UnitCube& cube = unitCube();
+        const Barrier barrier{set.cornerFloor};
+        for (const Slot& s : solver.mSlots[at(p)]) {
             if (s.cell < 0) continue;
             const Index c = s.cell;
             const std::size_t k = static_cast<std::size_t>(s.corner);
@@ -263,14 +316,14 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
             {
                 std::array<Vec3, 8> grad;
                 const Real V = hexVolumeGradient(xc, grad);
-                const Real V0 = v0[at(c)], C = V / V0 - 1;
+                const Real V0 = (*in.restVolumes)[at(c)], C = V / V0 - 1;
                 const Vec3 gk = grad[k] / V0;
                 g += (kappa[at(c)] * C + lambda[at(c)]) * gk;
                 H += kappa[at(c)] * gk * gk.transpose();
             }
             // The four corner Jacobians this point enters: its own corner's and, as their
             // neighbour, those of the corners beside it.
-            const Real kb = set.cornerStiffness * scale * v0[at(c)];
+            const Real kb = set.cornerStiffness * scale * (*in.restVolumes)[at(c)];
             for (int role = 0; role < 4; ++role) {
                 const int corner = role == 0 ? s.corner : (s.corner ^ (1 << (role - 1)));
                 Vec3 dc;
@@ -285,10 +338,13 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
                 H += kb * d2 * dj * dj.transpose();
             }
         }
-        // Colliders: a stiff penalty on the depth beyond what the point may keep, with lagged
-        // Coulomb friction (IPC's smoothed static-to-kinetic transition over eps).
-        const Real kc = set.contactStiffness * inert;
-        const Real eps = Real(1e-3) * h;
+    }
+
+    /// Colliders: a stiff penalty on the depth beyond what the point may keep, with lagged
+    /// Coulomb friction (IPC's smoothed static-to-kinetic transition over eps).
+    void addColliders(Index p, Vec3& g, Mat3& H) const {
+        const std::vector<Vec3>& x0 = *in.start;
+        const Real kc = set.contactStiffness * (massOf(p) / (dt * dt));
         for (std::size_t ci = 0; ci < colliders.size(); ++ci) {
             const Collider& col = colliders[ci];
             Vec3 grad;
@@ -302,17 +358,57 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
             if (!(d > 0)) continue;
             g -= kc * d * nrm;
             H += kc * nrm * nrm.transpose();
-            const Real fn = kc * d;
-            if (col.friction > 0) {
-                Vec3 u = x[at(p)] - x0[at(p)] - dt * col.velocity;
-                u -= u.dot(nrm) * nrm;
-                const Real un = u.norm();
-                const Real f1 = un < eps ? (2 * un / eps - un * un / (eps * eps)) : Real(1);
-                const Real stiff = un > 0 ? col.friction * fn * f1 / un : col.friction * fn * 2 / eps;
-                g += stiff * u;
-                H += stiff * (Mat3::Identity() - nrm * nrm.transpose());
+            if (col.friction > 0)
+                addFriction(x[at(p)] - x0[at(p)] - dt * col.velocity, nrm, col.friction * (kc * d), 1, g, H);
+        }
+    }
+
+    /// Lagged Coulomb friction on a tangential motion u (of the contact point relative to what
+    /// it touches, over the step) under the normal force fn; e: du/dx of this point.
+    void addFriction(Vec3 u, const Vec3& nrm, Real limit, Real e, Vec3& g, Mat3& H) const {
+        const Real eps = Real(1e-3) * h;
+        u -= u.dot(nrm) * nrm;
+        const Real un = u.norm();
+        const Real f1 = un < eps ? (2 * un / eps - un * un / (eps * eps)) : Real(1);
+        const Real stiff = un > 0 ? limit * f1 / un : limit * 2 / eps;
+        g += e * stiff * u;
+        H += e * e * stiff * (Mat3::Identity() - nrm * nrm.transpose());
+    }
+
+    /// The body contacts point p enters (BodyContact's energy).
+    void addBodyContacts(Index p, const std::vector<BodyContact>& contacts,
+                         const std::vector<std::unique_ptr<Run>>& runs, Vec3& g, Mat3& H) const {
+        for (Index l = linkStart[at(p)]; l < linkStart[at(p) + 1]; ++l) {
+            const BodyContact& bc = contacts[at(links[at(l)].first)];
+            const Real e = links[at(l)].second;
+            const Run& ra = *runs[static_cast<std::size_t>(bc.a)];
+            const Run& rb = *runs[static_cast<std::size_t>(bc.b)];
+            Vec3 surface = Vec3::Zero(), surfaceStart = Vec3::Zero();
+            for (std::size_t j = 0; j < 3; ++j) {
+                surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
+                surfaceStart += bc.w[static_cast<Index>(j)] * (*rb.in.start)[at(bc.q[j])];
+            }
+            const Real d = bc.margin - bc.normal.dot(ra.x[at(bc.p)] - surface);
+            if (!(d > 0)) continue;
+            g -= e * bc.stiffness * d * bc.normal;
+            H += e * e * bc.stiffness * bc.normal * bc.normal.transpose();
+            if (bc.friction > 0) {
+                const Vec3 u = (ra.x[at(bc.p)] - (*ra.in.start)[at(bc.p)]) - (surface - surfaceStart);
+                addFriction(u, bc.normal, bc.friction * bc.stiffness * d, e, g, H);
             }
         }
+    }
+
+    /// One point's Newton step (file comment); returns how far it moved.
+    Real update(Index p, const std::vector<BodyContact>& contacts, const std::vector<std::unique_ptr<Run>>& runs) {
+        const Real inert = massOf(p) / (dt * dt);
+        Vec3 g = inert * (x[at(p)] - (*in.inertial)[at(p)]);
+        Mat3 H = inert * Mat3::Identity();
+        std::array<Guard, 32> guards;
+        int guarded = 0;
+        addCells(p, g, H, guards, guarded);
+        addColliders(p, g, H);
+        if (linkStart[at(p)] < linkStart[at(p) + 1]) addBodyContacts(p, contacts, runs, g, H);
         Vec3 dx = -H.ldlt().solve(g);
         if (!dx.allFinite()) return 0;
         Real alpha = 1;
@@ -324,83 +420,161 @@ CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSetti
         dx *= alpha;
         x[at(p)] += dx;
         return dx.norm();
-    };
+    }
 
-    CellSolveReport report;
-    const Index grain = 64;
-    for (int it = 0; it < set.maxIterations; ++it) {
-        // The cells' rotations: from the polar decomposition (SVD) on the first sweep, then turned
-        // toward the current frames by the warm-started iteration, as the sweeps move them little.
-        parallelFor(
-            nc,
-            [&](Index c) {
-                const Mat3 F = centreFrame(gather(cells, x, c), h);
-                if (mu > 0) {
-                    const Mat3 M = in.restStretch ? Mat3(F * pInv[at(c)]) : F;
-                    if (it == 0) qP[at(c)] = Eigen::Quaternion<Real>(polarRotationOf(M));
-                    else turnToward(M, qP[at(c)]);
-                    rotP[at(c)] = in.restStretch ? Mat3(qP[at(c)].toRotationMatrix() * pInv[at(c)].transpose())
-                                                 : qP[at(c)].toRotationMatrix();
-                }
-                if (eta > 0) {
-                    const Mat3& F0 = startFrame[at(c)];
-                    const Real det0 = F0.determinant();
-                    // the rotation over the step: of F F⁻⁻¹ (its adjugate: the same rotation)
-                    const Mat3 M = det0 > 0 ? Mat3(F * (det0 * F0.inverse())) : F;
-                    if (it == 0 || !(det0 > 0)) {
-                        qV[at(c)] = Eigen::Quaternion<Real>(
-                            det0 > 0 ? polarRotationOf(M) : Mat3(polarRotationOf(F) * polarRotationOf(F0).transpose()));
-                    } else {
-                        turnToward(M, qV[at(c)]);
-                    }
-                    rotV[at(c)] = qV[at(c)].toRotationMatrix();
-                }
-            },
-            grain);
-        Real moved = 0;
-        for (const std::vector<Index>& colour : mColour) {
-            const Index count = static_cast<Index>(colour.size());
-            std::vector<Real> move(at(count));
-            parallelFor(count, [&](Index i) { move[at(i)] = update(colour[at(i)]); }, grain);
-            for (Real v : move) moved = std::max(moved, v);
-        }
-        // The multipliers take each cell's remaining volume error (augmented Lagrangian).
-        const Real worst = parallelReduce(
-            nc, Real(0),
+    /// The multipliers take each cell's remaining volume error (augmented Lagrangian); returns
+    /// the largest.
+    Real updateMultipliers() {
+        const LatticeCells& cells = *solver.mCells;
+        return parallelReduce(
+            cells.size(), Real(0),
             [&](Real& acc, Index c) {
-                const Real C = hexVolume(gather(cells, x, c)) / v0[at(c)] - 1;
+                const Real C = hexVolume(gather(cells, x, c)) / (*in.restVolumes)[at(c)] - 1;
                 lambda[at(c)] += kappa[at(c)] * C;
                 acc = std::max(acc, std::abs(C));
             },
-            [](Real a, Real b) { return std::max(a, b); }, grain);
-        report.iterations = it + 1;
-        report.lastMove = moved / h;
-        report.maxVolumeError = worst;
-        if (moved <= set.tolerance * h && worst <= set.volumeTolerance) {
-            report.converged = true;
-            break;
-        }
+            [](Real a, Real b) { return std::max(a, b); }, 64);
     }
-    // The points held by a collider at the end, and how deep they were at x̃.
-    parallelFor(n, [&](Index p) {
-        for (std::size_t ci = 0; ci < colliders.size(); ++ci) {
-            const Collider& col = colliders[ci];
-            Vec3 grad;
-            Real gn;
-            Real phi = col.evaluate(x[at(p)], grad);
-            gn = grad.norm();
-            if (gn > 0 && marginOf(ci) - phi / gn > -Real(1e-6) * h) contact[at(p)] = 1;
-            phi = col.evaluate(xt[at(p)], grad);
-            gn = grad.norm();
-            if (gn > 0) depth[at(p)] = std::max(depth[at(p)], marginOf(ci) - phi / gn);
+
+    /// The points a collider holds at the end, and how deep they were at x̃.
+    void finish(std::vector<unsigned char>& contact, std::vector<Real>& depth, CellSolveReport& report) const {
+        const LatticeCells& cells = *solver.mCells;
+        const std::vector<Vec3>& xt = *in.inertial;
+        const Index n = static_cast<Index>(solver.mMass.size());
+        parallelFor(n, [&](Index p) {
+            for (std::size_t ci = 0; ci < colliders.size(); ++ci) {
+                const Collider& col = colliders[ci];
+                Vec3 grad;
+                Real phi = col.evaluate(x[at(p)], grad);
+                Real gn = grad.norm();
+                if (gn > 0 && marginOf(ci) - phi / gn > -Real(1e-6) * h) contact[at(p)] = 1;
+                phi = col.evaluate(xt[at(p)], grad);
+                gn = grad.norm();
+                if (gn > 0) depth[at(p)] = std::max(depth[at(p)], marginOf(ci) - phi / gn);
+            }
+            if (!contact[at(p)]) depth[at(p)] = 0;
+        });
+        report.contacts = std::count(contact.begin(), contact.end(), 1);
+        report.minCornerJacobian = parallelReduce(
+            cells.size(), Real(1),
+            [&](Real& acc, Index c) { acc = std::min(acc, minCornerJacobian(gather(cells, x, c), h)); },
+            [](Real a, Real b) { return std::min(a, b); });
+    }
+};
+
+void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinder& find) {
+    const std::vector<Collider> noColliders;
+    const std::size_t count = members.size();
+    std::vector<std::unique_ptr<CellSolver::Run>> runs;
+    int maxIterations = 0;
+    for (CellSolveMember& m : members) {
+        runs.push_back(std::make_unique<CellSolver::Run>(*m.solver, m, noColliders));
+        maxIterations = std::max(maxIterations, m.settings.maxIterations);
+        m.depth->assign(m.solver->mMass.size(), 0);
+        m.contact->assign(m.solver->mMass.size(), 0);
+        m.report = CellSolveReport{};
+    }
+    std::vector<BodyContact> contacts;
+    std::vector<const std::vector<Vec3>*> positions(count);
+    for (std::size_t i = 0; i < count; ++i) positions[i] = members[i].x;
+    // The contacts between the bodies, found again every few sweeps (a contact's normal and
+    // surface point are held between): each point's list of those it enters.
+    auto findContacts = [&](bool first) {
+        contacts.clear();
+        find(positions, contacts);
+        for (BodyContact& bc : contacts) {
+            const CellSolver::Run& ra = *runs[static_cast<std::size_t>(bc.a)];
+            bc.stiffness = ra.set.contactStiffness * ra.massOf(bc.p) / (ra.dt * ra.dt);
+            if (first) {  // the depth at x̃ (the renderer's ramp)
+                const CellSolver::Run& rb = *runs[static_cast<std::size_t>(bc.b)];
+                Vec3 surface = Vec3::Zero();
+                for (std::size_t j = 0; j < 3; ++j) surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
+                Real& depth = (*members[static_cast<std::size_t>(bc.a)].depth)[at(bc.p)];
+                depth = std::max(depth, bc.margin - bc.normal.dot(ra.x[at(bc.p)] - surface));
+            }
         }
-        if (!contact[at(p)]) depth[at(p)] = 0;
-    });
-    report.contacts = std::count(contact.begin(), contact.end(), 1);
-    report.minCornerJacobian = parallelReduce(
-        nc, Real(1), [&](Real& acc, Index c) { acc = std::min(acc, minCornerJacobian(gather(cells, x, c), h)); },
-        [](Real a, Real b) { return std::min(a, b); });
-    return report;
+        for (std::size_t i = 0; i < count; ++i) {
+            CellSolver::Run& r = *runs[i];
+            std::fill(r.linkStart.begin(), r.linkStart.end(), 0);
+        }
+        auto each = [&](auto&& f) {
+            for (std::size_t k = 0; k < contacts.size(); ++k) {
+                const BodyContact& bc = contacts[k];
+                f(bc.a, bc.p, static_cast<Index>(k), Real(1));
+                for (std::size_t j = 0; j < 3; ++j)
+                    if (bc.w[static_cast<Index>(j)] != 0)
+                        f(bc.b, bc.q[j], static_cast<Index>(k), -bc.w[static_cast<Index>(j)]);
+            }
+        };
+        each([&](int m, Index p, Index, Real) { ++runs[static_cast<std::size_t>(m)]->linkStart[at(p) + 1]; });
+        for (std::size_t i = 0; i < count; ++i) {
+            CellSolver::Run& r = *runs[i];
+            for (std::size_t p = 1; p < r.linkStart.size(); ++p) r.linkStart[p] += r.linkStart[p - 1];
+            r.links.assign(at(r.linkStart.back()), {});
+        }
+        std::vector<std::vector<Index>> fill(count);
+        for (std::size_t i = 0; i < count; ++i) fill[i].assign(runs[i]->linkStart.begin(), runs[i]->linkStart.end() - 1);
+        each([&](int m, Index p, Index k, Real e) {
+            runs[static_cast<std::size_t>(m)]->links[at(fill[static_cast<std::size_t>(m)][at(p)]++)] = {k, e};
+        });
+    };
+    constexpr int kFindEvery = 4;
+    const Index grain = 64;
+    std::vector<Real> moved(count), worst(count);
+    for (int it = 0; it < maxIterations; ++it) {
+        if (find && it % kFindEvery == 0) findContacts(it == 0);
+        for (auto& r : runs) r->rotations(it);
+        std::fill(moved.begin(), moved.end(), Real(0));
+        for (std::size_t colour = 0; colour < 8; ++colour)
+            for (std::size_t i = 0; i < count; ++i) {
+                CellSolver::Run& r = *runs[i];
+                const std::vector<Index>& points = r.solver.mColour[colour];
+                const Index n = static_cast<Index>(points.size());
+                std::vector<Real> move(at(n));
+                parallelFor(n, [&](Index k) { move[at(k)] = r.update(points[at(k)], contacts, runs); }, grain);
+                for (Real v : move) moved[i] = std::max(moved[i], v);
+            }
+        bool all = true;
+        for (std::size_t i = 0; i < count; ++i) {
+            worst[i] = runs[i]->updateMultipliers();
+            CellSolveReport& rep = members[i].report;
+            rep.iterations = it + 1;
+            rep.lastMove = moved[i] / runs[i]->h;
+            rep.maxVolumeError = worst[i];
+            rep.converged = moved[i] <= members[i].settings.tolerance * runs[i]->h &&
+                            worst[i] <= members[i].settings.volumeTolerance;
+            all = all && rep.converged;
+        }
+        if (all) break;
+    }
+    for (std::size_t i = 0; i < count; ++i) {
+        CellSolveMember& m = members[i];
+        // the points another body holds at the end
+        for (const BodyContact& bc : contacts) {
+            if (static_cast<std::size_t>(bc.a) != i) continue;
+            const CellSolver::Run& rb = *runs[static_cast<std::size_t>(bc.b)];
+            Vec3 surface = Vec3::Zero();
+            for (std::size_t j = 0; j < 3; ++j) surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
+            if (bc.margin - bc.normal.dot(m.x->at(at(bc.p)) - surface) > -Real(1e-6) * runs[i]->h)
+                (*m.contact)[at(bc.p)] = 1;
+        }
+        runs[i]->finish(*m.contact, *m.depth, m.report);
+    }
+}
+
+CellSolveReport CellSolver::solve(const CellSolveInput& in, const CellSolveSettings& set, std::vector<Vec3>& x,
+                                  std::vector<Real>& lambda, std::vector<unsigned char>& contact,
+                                  std::vector<Real>& depth) const {
+    std::vector<CellSolveMember> one(1);
+    one[0].solver = this;
+    one[0].in = in;
+    one[0].settings = set;
+    one[0].x = &x;
+    one[0].lambda = &lambda;
+    one[0].contact = &contact;
+    one[0].depth = &depth;
+    solveTogether(one, {});
+    return one[0].report;
 }
 
 }  // namespace dgv

@@ -28,11 +28,13 @@
 #include "geom/lattice.hpp"
 
 #include <array>
+#include <functional>
 #include <vector>
 
 namespace dgv {
 
 struct Collider;
+class CellSolver;
 
 /// What the solve minimises and when it stops.
 struct CellSolveSettings {
@@ -84,6 +86,47 @@ struct CellSolveInput {
     const std::vector<Real>* margins = nullptr;
 };
 
+/// A contact between two bodies solved together: point p of member a is held at least `margin`
+/// outside member b's surface, whose nearest point is Σ_j w_j x_(q_j) with outward normal n,
+/// both taken where the contact was found. The energy is that of a collider's penalty,
+/// ½ k d², d = margin − n · (x_p − Σ_j w_j x_(q_j)), with lagged Coulomb friction on the
+/// tangential motion of p relative to that surface point: one energy of both bodies' points,
+/// so the forces on the two sides balance (momentum is exchanged, not made).
+struct BodyContact {
+    int a = 0;  ///< the member whose point it is
+    Index p = 0;
+    int b = 0;  ///< the member whose surface it meets
+    std::array<Index, 3> q{};
+    Vec3 w = Vec3::Zero();
+    Vec3 normal = Vec3::UnitY();
+    Real margin = 0;
+    Real friction = 0;
+    Real stiffness = 0;  ///< k, N/m (set by the solve: member a's contactStiffness · m_p / δt²)
+};
+
+/// One body's part of a solve (CellSolver::solve's arguments).
+struct CellSolveMember {
+    const CellSolver* solver = nullptr;
+    CellSolveInput in;
+    CellSolveSettings settings;
+    std::vector<Vec3>* x = nullptr;
+    std::vector<Real>* lambda = nullptr;
+    std::vector<unsigned char>* contact = nullptr;
+    std::vector<Real>* depth = nullptr;
+    CellSolveReport report;  ///< out
+};
+
+/// Finds the contacts between the members at positions x (one per member): called at the start
+/// of a solve and every few sweeps after (dynamics cannot include collide; sim supplies it).
+using BodyContactFinder =
+    std::function<void(const std::vector<const std::vector<Vec3>*>& x, std::vector<BodyContact>& out)>;
+
+/// Minimises the sum of the members' energies (file comment) and of the contacts between them
+/// that `find` reports, sweep by sweep over all of them (each member's colours in turn): bodies
+/// in contact solved as one system. Stops when every member has converged (or at the largest
+/// maxIterations). With one member and no finder, CellSolver::solve.
+void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinder& find);
+
 /// A lattice's cells prepared for the solve: the per-point cell lists and the 8 colours.
 class CellSolver {
 public:
@@ -105,6 +148,8 @@ public:
     static Real minCornerJacobian(const std::array<Vec3, 8>& x, Real h);
 
 private:
+    friend void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinder& find);
+    struct Run;  // one member's state over a solve (cell_solve.cpp)
     struct Slot {
         Index cell;
         int corner;

@@ -6,8 +6,9 @@
 
 namespace dgv {
 
-TriangleMesh latticeSurface(const Lattice& lat, const std::vector<Vec3>& x) {
+TriangleMesh latticeSurface(const Lattice& lat, const std::vector<Vec3>& x, std::vector<Index>* points) {
     TriangleMesh mesh;
+    if (points) points->clear();
     std::vector<int> vertexOf(static_cast<std::size_t>(lat.size()), -1);
     auto vertex = [&](const Vec3i& u) {
         const Index p = lat.pointAt(u);
@@ -15,6 +16,7 @@ TriangleMesh latticeSurface(const Lattice& lat, const std::vector<Vec3>& x) {
         if (v < 0) {
             v = static_cast<int>(mesh.vertices.size());
             mesh.vertices.push_back(x[static_cast<std::size_t>(p)]);
+            if (points) points->push_back(p);
         }
         return v;
     };

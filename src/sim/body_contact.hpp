@@ -16,6 +16,7 @@ namespace dgv {
 /// cells (cells whose 8 corners are material points; a face is outer when the cell across it is
 /// not complete), two triangles per face, counter-clockwise seen from outside. The vertices are
 /// the material points on those faces, at x. Points in no complete cell are not on it.
-TriangleMesh latticeSurface(const Lattice& lat, const std::vector<Vec3>& x);
+/// points (if given): the lattice point of each vertex.
+TriangleMesh latticeSurface(const Lattice& lat, const std::vector<Vec3>& x, std::vector<Index>* points = nullptr);
 
 }  // namespace dgv

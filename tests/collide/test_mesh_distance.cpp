@@ -125,6 +125,43 @@ TEST_CASE("mesh distance: the hierarchy finds the nearest triangle of a deformed
     CHECK(offSurface < 1e-15);
 }
 
+TEST_CASE("mesh distance: the nearest point's triangle and barycentric coordinates rebuild it, on lattice points",
+          "[collide][distance]") {
+    // The contact between bodies solved together holds a point against Σ w_j x_(q_j) of the
+    // nearest triangle: w must rebuild the nearest point (|x − Σ w_j v_j| = |distance|, and x
+    // lies along the gradient from it), and the triangle's vertices must be lattice points.
+    const Real h = 0.05;
+    const Lattice lat = test::sphereLattice(5, h, Vec3(-0.25, -0.25, -0.25));
+    std::vector<Vec3> x = restPositions(lat);
+    for (Vec3& p : x) p = Vec3(p.x() + 0.4 * p.y(), 0.9 * p.y() + 0.3 * p.x() * p.x(), p.z());
+    std::vector<Index> points;
+    const TriangleMesh surface = latticeSurface(lat, x, &points);
+    REQUIRE(points.size() == surface.vertices.size());
+    for (std::size_t v = 0; v < points.size(); ++v) CHECK(x[at(points[v])] == surface.vertices[v]);
+    const MeshDistance d(surface);
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<Real> u(-0.4, 0.4);
+    Real worstPoint = 0, worstSum = 0, worstDistance = 0;
+    for (int s = 0; s < 800; ++s) {
+        const Vec3 q(u(rng), u(rng), u(rng));
+        const MeshDistance::Closest c = d.closest(q);
+        REQUIRE(c.triangle >= 0);
+        CHECK(c.distance == d.signedDistance(q));
+        CHECK(c.barycentric.minCoeff() >= 0);
+        worstSum = std::max(worstSum, std::abs(c.barycentric.sum() - 1));
+        Vec3 nearest = Vec3::Zero();
+        for (int k = 0; k < 3; ++k)
+            nearest += c.barycentric[k] * x[at(points[at(surface.triangles[at(c.triangle)][static_cast<std::size_t>(k)])])];
+        worstPoint = std::max(worstPoint, (q - (nearest + c.distance * c.gradient)).norm());
+        worstDistance = std::max(worstDistance, std::abs((q - nearest).norm() - std::abs(c.distance)));
+    }
+    CHECK(worstSum < 1e-14);
+    CHECK(worstPoint < 1e-12);
+    CHECK(worstDistance < 1e-12);
+    // beyond the given distance: no triangle
+    CHECK(d.closest(Vec3(3, 0, 0), 0.5).triangle == -1);
+}
+
 TEST_CASE("mesh distance: the sign is right beside an edge four faces share", "[collide][distance]") {
     // Two cells that touch along one edge only (the lattice surface is closed but not manifold
     // there): the cells' insides are negative, the two empty quarters beside the edge positive, even where the nearest
