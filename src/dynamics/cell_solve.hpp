@@ -63,7 +63,8 @@ struct CellSolveReport {
     Real lastMove = 0;         ///< the last sweep's largest point move / h
     Real maxVolumeError = 0;   ///< max_c |C_c| at the end
     Real minCornerJacobian = 1;
-    Index contacts = 0;        ///< points held by a collider at the end
+    Index contacts = 0;        ///< points held by a collider or another body at the end
+    Index colliderContacts = 0;  ///< of those, the points a collider holds that is not a body's surface
 };
 
 /// The per-step inputs of CellSolver::solve.

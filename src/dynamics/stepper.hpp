@@ -49,6 +49,7 @@
 #include "geom/lattice.hpp"
 
 #include <array>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -303,6 +304,13 @@ public:
     /// The step's second half, after predict: colliders, the volume projection, the velocities
     /// and the new state.
     StepReport finish(const std::vector<Collider>& colliders);
+    /// The one-solve step (StepSolver::One) of bodies in contact with each other, solved as one
+    /// system (sim/simulation): after predict, beginSolve sets up this body's part with its
+    /// colliders (not the bodies solved with it); the caller solves the parts together
+    /// (solveTogether, with the contacts between them), then each body's endSolve finishes its
+    /// step as finish does. finish is beginSolve, a solve of the body alone, and endSolve.
+    CellSolveMember beginSolve(const std::vector<Collider>& colliders);
+    StepReport endSolve(const CellSolveMember& member);
     const std::vector<Vec3>& predictedPositions() const { return mXPred; }  ///< after predict
     const Vec3& predictedCentreVelocity() const { return mVcPred; }         ///< after predict
     /// Adds dv to the centre velocity and to every point's velocity over the last step (the
@@ -375,6 +383,12 @@ private:
     /// are kept to round-off (a translation and a small turn about the centre of mass).
     void keepMomenta(const std::vector<Vec3>& inertial, std::vector<Vec3>& x) const;
     CellSolver mCellSolver;
+    // Between beginSolve and endSolve: what the solve's member points at.
+    std::chrono::steady_clock::time_point mSolveStart;
+    std::vector<Vec3> mSolveInertial, mSolveX;
+    std::vector<Collider> mSolveColliders;
+    std::vector<std::vector<Real>> mSolveAllowed;
+    std::vector<Real> mSolveMargins;
     std::vector<Mat3> mCellRest;  ///< #C: each cell's rest stretch P (putty; empty when no yield)
     Real mShear = 0;              ///< μ, Pa
     // BDF2 (x̃ from the last two steps; docs/math.md, "The one-solve step"): the step before's

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 namespace dgv {
 
@@ -64,21 +65,29 @@ StepReport DeformableBody::predictOne(const ForceField& field, Real frame, Real 
 }
 
 StepReport DeformableBody::finishOne(const std::vector<Collider>& colliders) {
+    std::vector<CellSolveMember> one{beginSolve(colliders)};
+    solveTogether(one, {});
+    return endSolve(one[0]);
+}
+
+CellSolveMember DeformableBody::beginSolve(const std::vector<Collider>& colliders) {
+    if (mSet.solver != StepSolver::One || !mPredicted) throw std::logic_error("beginSolve: a predicted one-solve body only");
     mPredicted = false;
-    const auto tStart = Clock::now();
-    StepReport report = mPredReport;
+    mSolveStart = Clock::now();
     const Index n = mLat.size();
     const Real h = mLat.spacing;
-    const Real dt = mDtPred;
-    const std::vector<Vec3> inertial = std::move(mXPred);
+    mSolveInertial = std::move(mXPred);
     mXPred.clear();
+    mSolveColliders = colliders;
+    const std::vector<Vec3>& inertial = mSolveInertial;
 
     // Another body's surface: this body keeps the share of the overlap at x̃ the other one takes
     // (Collider::share); the caller puts the pair's momentum right. A static collider holds the
     // points half a voxel outside it, where the surface the body renders lies.
-    auto t = Clock::now();
-    std::vector<std::vector<Real>> allowed(colliders.size());
-    std::vector<Real> margins(colliders.size(), 0);
+    std::vector<std::vector<Real>>& allowed = mSolveAllowed;
+    std::vector<Real>& margins = mSolveMargins;
+    allowed.assign(colliders.size(), {});
+    margins.assign(colliders.size(), 0);
     for (std::size_t c = 0; c < colliders.size(); ++c) {
         const Collider& col = colliders[c];
         if (!col.object) {
@@ -101,18 +110,41 @@ StepReport DeformableBody::finishOne(const std::vector<Collider>& colliders) {
     const bool memory = mSet.shapeStiffness > 0;
     cs.viscosity = mSet.density * mSet.viscosity + (memory ? 2 * mSet.damping * mShear / mSet.shapeStiffness : 0);
     cs.density = mSet.density;
-    CellSolveInput in;
+    CellSolveMember m;
+    m.solver = &mCellSolver;
+    m.settings = cs;
+    CellSolveInput& in = m.in;
     in.start = &mXHat;
     in.feasible = &mX;
     in.inertial = &inertial;
-    in.dt = mBeta * dt;
+    in.dt = mBeta * mDtPred;
     in.restVolumes = &mRestVolumes;
     in.restStretch = mCellRest.empty() ? nullptr : &mCellRest;
-    in.colliders = &colliders;
+    in.colliders = &mSolveColliders;
     in.allowedDepth = &allowed;
     in.margins = &margins;
-    std::vector<Vec3> xNew = inertial;
-    const CellSolveReport sr = mCellSolver.solve(in, cs, xNew, mVolumeLambda, mContact, mContactDepth);
+    mSolveX = inertial;
+    m.x = &mSolveX;
+    m.lambda = &mVolumeLambda;
+    m.contact = &mContact;
+    m.depth = &mContactDepth;
+    return m;
+}
+
+StepReport DeformableBody::endSolve(const CellSolveMember& member) {
+    const auto tStart = mSolveStart;
+    StepReport report = mPredReport;
+    const Index n = mLat.size();
+    const Real h = mLat.spacing;
+    const Real dt = mDtPred;
+    const std::vector<Collider>& colliders = mSolveColliders;
+    const std::vector<Vec3> inertial = std::move(mSolveInertial);
+    std::vector<Vec3> xNew = std::move(mSolveX);
+    mSolveInertial.clear();
+    mSolveX.clear();
+    const bool memory = mSet.shapeStiffness > 0;
+    const CellSolveReport& sr = member.report;
+    auto t = tStart;
     report.solveIterations = sr.iterations;
     report.solveConverged = sr.converged;
     report.reconstructSeconds = secondsSince(t);
@@ -194,7 +226,10 @@ StepReport DeformableBody::finishOne(const std::vector<Collider>& colliders) {
     fitAffine(xNew, c1, A1);
     const Sl3Result r1 = projectToSL3Scale(A1);
     if (r1.ok) A1 = r1.matrix;
-    mVc = (c1 - mC) / dt;
+    // the centre's velocity is the points' momentum over the mass (with BDF2, (c1 − c)/δt is not)
+    Vec3 momentum = Vec3::Zero();
+    for (Index p = 0; p < n; ++p) momentum += mMass[at(p)] * mV[at(p)];
+    mVc = momentum / mTotalMass;
     mAdot = (A1 - mA) / dt;
     mC = c1;
     mA = A1;

@@ -402,6 +402,81 @@ std::vector<std::vector<Collider>> Simulation::substepColliders() const {
     return out;
 }
 
+std::vector<std::vector<std::size_t>> Simulation::solveGroups(const std::vector<std::vector<Collider>>& colliders) const {
+    // One-solve bodies close enough to touch this substep (an object collider between them)
+    // are solved as one system; union-find over those pairs.
+    const std::size_t n = mBodies.size();
+    std::vector<std::size_t> parent(n);
+    for (std::size_t i = 0; i < n; ++i) parent[i] = i;
+    auto root = [&](std::size_t i) {
+        while (parent[i] != i) i = parent[i] = parent[parent[i]];
+        return i;
+    };
+    auto one = [&](std::size_t i) { return mBodies[i] && mBodies[i]->settings().solver == StepSolver::One; };
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!one(i)) continue;
+        for (const Collider& c : colliders[i])
+            if (c.object && c.body >= 0 && one(static_cast<std::size_t>(c.body)))
+                parent[root(i)] = root(static_cast<std::size_t>(c.body));
+    }
+    std::vector<std::vector<std::size_t>> members(n), out(n);
+    for (std::size_t i = 0; i < n; ++i)
+        if (one(i)) members[root(i)].push_back(i);
+    for (std::size_t i = 0; i < n; ++i)
+        if (one(i)) out[i] = members[root(i)];
+    return out;
+}
+
+void Simulation::solveGroup(const std::vector<std::size_t>& group, const std::vector<std::vector<Collider>>& colliders,
+                            std::vector<StepReport>& reports, std::vector<unsigned char>& done) {
+    // Each body's colliders less the bodies of the group (those meet in the solve), one solve of
+    // them all, then each body's step finished.
+    std::vector<CellSolveMember> members;
+    std::vector<const Lattice*> lattices;
+    for (std::size_t i : group) {
+        std::vector<Collider> own;
+        for (const Collider& c : colliders[i])
+            if (!(c.object && std::find(group.begin(), group.end(), static_cast<std::size_t>(c.body)) != group.end()))
+                own.push_back(c);
+        members.push_back(mBodies[i]->beginSolve(own));
+        lattices.push_back(&mBodies[i]->lattice());
+    }
+    // How far two bodies may close in the solve: twice the farthest a point's prediction goes.
+    Real motion = 0;
+    for (const CellSolveMember& m : members) {
+        const std::vector<Vec3>& from = *m.in.feasible;
+        const std::vector<Vec3>& to = *m.in.inertial;
+        for (std::size_t p = 0; p < from.size(); ++p) motion = std::max(motion, (to[p] - from[p]).norm());
+    }
+    const Real friction = mScene.collision.friction;
+    solveTogether(members, [&](const std::vector<const std::vector<Vec3>*>& x, std::vector<BodyContact>& out) {
+        findBodyContacts(lattices, x, 2 * motion, friction, out);
+    });
+    // A group that nothing else holds (no pin, no collider) keeps its momentum: the minimiser
+    // has Σ m (x − x̃) = 0 over the group (the contacts' forces balance); the solve stops within
+    // its tolerance of it, and one shift of every point puts it right.
+    bool free = true;
+    for (std::size_t k = 0; k < group.size(); ++k)
+        free = free && !mBodies[group[k]]->anyPinned() && members[k].report.colliderContacts == 0;
+    if (free) {
+        Vec3 off = Vec3::Zero();
+        Real mass = 0;
+        for (std::size_t k = 0; k < group.size(); ++k) {
+            const std::vector<Real>& m = mBodies[group[k]]->masses();
+            const std::vector<Vec3>& x = *members[k].x;
+            const std::vector<Vec3>& xt = *members[k].in.inertial;
+            for (std::size_t p = 0; p < m.size(); ++p) off += m[p] * (x[p] - xt[p]);
+            mass += mBodies[group[k]]->totalMass();
+        }
+        for (CellSolveMember& m : members)
+            for (Vec3& x : *m.x) x -= off / mass;
+    }
+    for (std::size_t k = 0; k < group.size(); ++k) {
+        reports[group[k]] = mBodies[group[k]]->endSolve(members[k]);
+        done[group[k]] = 1;
+    }
+}
+
 void Simulation::keepPairMomentum(const std::vector<std::vector<Collider>>& colliders,
                                   const std::vector<unsigned char>& staticContact) {
     // Bodies touching each other (pairContact) form groups; a group in which no body is pinned
@@ -721,9 +796,13 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
         }
         const std::vector<std::vector<Collider>> colliders = substepColliders();
         std::vector<unsigned char> staticContact(mBodies.size(), 0);
+        const std::vector<std::vector<std::size_t>> groups = solveGroups(colliders);
+        std::vector<StepReport> grouped(mBodies.size());
+        std::vector<unsigned char> done(mBodies.size(), 0);
         for (std::size_t i = 0; i < mBodies.size(); ++i) {
             if (!mBodies[i]) continue;
-            const StepReport r = mBodies[i]->finish(colliders[i]);
+            if (!done[i] && groups[i].size() > 1) solveGroup(groups[i], colliders, grouped, done);
+            const StepReport r = done[i] ? std::move(grouped[i]) : mBodies[i]->finish(colliders[i]);
             staticContact[i] = r.staticContact ? 1 : 0;
             if (!r.fault.empty()) throw fault(i, r.fault, r.faultKind);
             for (const Vec3& x : mBodies[i]->positions())

@@ -184,6 +184,12 @@ private:
     Real objectPenetration() const;
     /// After every body's finish: a group of bodies touching only each other keeps its momentum
     /// (one velocity shift for the whole group; simulation.cpp).
+    /// Per body, the one-solve bodies solved with it this substep (itself included; empty for
+    /// a body of the chain): those joined by object colliders, transitively.
+    std::vector<std::vector<std::size_t>> solveGroups(const std::vector<std::vector<Collider>>& colliders) const;
+    /// Finishes the substep of a group's bodies with one solve (reports[i], done[i] = 1 each).
+    void solveGroup(const std::vector<std::size_t>& group, const std::vector<std::vector<Collider>>& colliders,
+                    std::vector<StepReport>& reports, std::vector<unsigned char>& done);
     void keepPairMomentum(const std::vector<std::vector<Collider>>& colliders,
                           const std::vector<unsigned char>& staticContact);
     /// The surfaces' check of the current state: its figures summed over the bodies with a

@@ -263,3 +263,57 @@ TEST_CASE(
     CHECK(std::abs(slipA) < 0.1 * std::abs(va.x()));   // rolling, not sliding
     CHECK(maxPen < 0.5);
 }
+
+TEST_CASE("body contact: two one-solve jellies thrown head-on are solved as one system",
+          "[collide][body][sim][one_solve][slow]") {
+    // Two 4-voxel balls closing at 2 m/s, no forces, material.solver "one": the two are one
+    // minimisation while they are near (dynamics/cell_solve.hpp, BodyContact), the contact one
+    // energy of both bodies' points. A collision makes no energy (the kinetic energy never rises
+    // above the start's), the pair's momentum is what it was (to round-off), the balls stop each
+    // other and part again along the line they came (apart, not through), and no point of one
+    // is found inside the other's surface.
+    test::TempDir dir("blobs-one");
+    const Real h = 0.025;
+    const Lattice left = test::sphereLattice(4, h, Vec3(-0.15, 0, 0) - Vec3::Constant(4 * h));
+    const Lattice right = test::sphereLattice(4, h, Vec3(0.15, 0.01, 0) - Vec3::Constant(4 * h));
+    const SceneDesc scene = parseScene(
+        R"({"frames": {"start": 1, "end": 14, "fps": 24}, "substeps": 4,
+            "objects": [
+              {"name": "left", "primitive": {"type": "sphere", "radius": 0.1}, "velocity": [1, 0, 0],
+               "material": {"damping": 2, "stiffness": 300, "solver": "one"}},
+              {"name": "right", "primitive": {"type": "sphere", "radius": 0.1}, "velocity": [-1, 0, 0],
+               "material": {"damping": 2, "stiffness": 300, "solver": "one"}}],
+            "collision": {"restitution": 0.3, "friction": 0.5}})",
+        dir.path() / "s.json");
+    Simulation sim(scene, {&left, &right});
+    const DeformableBody& a = *sim.body(0);
+    const DeformableBody& b = *sim.body(1);
+    const Real ma = a.totalMass(), mb = b.totalMass();
+    const Real ke0 = 0.5 * (ma + mb);
+    Real worstMomentum = 0, maxPen = 0, maxKe = 0, lowest = ke0, maxErr = 0;
+    int contactFrames = 0;
+    for (int f = 2; f <= 14; ++f) {
+        const FrameStats st = sim.advanceTo(f);
+        maxPen = std::max(maxPen, st.maxPenetration);
+        maxKe = std::max(maxKe, st.kineticEnergy);
+        lowest = std::min(lowest, st.kineticEnergy);
+        maxErr = std::max(maxErr, st.maxCellVolumeError);
+        contactFrames += st.contacts > 0 ? 1 : 0;
+        CHECK(st.invertedCells == 0);
+        Vec3 total = Vec3::Zero();
+        for (const DeformableBody* body : {&a, &b})
+            for (std::size_t k = 0; k < body->masses().size(); ++k) total += body->masses()[k] * body->velocities()[k];
+        worstMomentum = std::max(worstMomentum, total.norm());
+    }
+    INFO("ke0 " << ke0 << ", max " << maxKe << ", lowest " << lowest << ", momentum error " << worstMomentum
+                << ", max penetration " << maxPen << " voxels, " << contactFrames << " frames in contact, velocities "
+                << a.centreVelocity().x() << " " << b.centreVelocity().x());
+    CHECK(maxKe <= ke0 * (1 + 1e-9));
+    CHECK(lowest < 0.3 * ke0);
+    CHECK(worstMomentum < 1e-9 * ma);
+    CHECK(contactFrames >= 3);
+    CHECK(maxPen < 0.05);  // voxels inside the margin (measured 0.016)
+    CHECK(maxErr <= 1e-4);
+    CHECK(a.centreVelocity().x() < 0);  // bounced back: apart, not through
+    CHECK(b.centreVelocity().x() > 0);
+}
