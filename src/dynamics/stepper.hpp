@@ -386,6 +386,7 @@ private:
     // Between beginSolve and endSolve: what the solve's member points at.
     std::chrono::steady_clock::time_point mSolveStart;
     std::vector<Vec3> mSolveInertial, mSolveX;
+    std::vector<Vec3> mXGuess;  ///< the solve's first guess (empty: x̃)
     std::vector<Collider> mSolveColliders;
     std::vector<std::vector<Real>> mSolveAllowed;
     std::vector<Real> mSolveMargins;

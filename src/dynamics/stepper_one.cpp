@@ -52,6 +52,17 @@ StepReport DeformableBody::predictOne(const ForceField& field, Real frame, Real 
         vHat[at(p)] = bdf2 ? Vec3((4 * mV[at(p)] - mVBefore[at(p)]) / 3) : mV[at(p)];
         mXPred[at(p)] = mXHat[at(p)] + step * vHat[at(p)] + step * step * fs.value[at(p)];
     });
+    // The solve's first guess: in contact, the prediction with the last step's acceleration in
+    // place of the forces' (a body at rest on the ground starts where it rests, not a step of
+    // gravity into the ground); in flight, x̃ (exact for a free fall).
+    mXGuess.clear();
+    if (bdf2 && mFreeFlight == 0 && mDtLast > 0) {
+        mXGuess.resize(at(n));
+        parallelFor(n, [&](Index p) {
+            const Vec3 a = (mV[at(p)] - mVBefore[at(p)]) / dt;
+            mXGuess[at(p)] = mPinned[at(p)] ? mXPred[at(p)] : Vec3(mXHat[at(p)] + step * vHat[at(p)] + step * step * a);
+        });
+    }
     Vec3 momentum = Vec3::Zero();
     for (Index p = 0; p < n; ++p) momentum += mMass[at(p)] * (vHat[at(p)] + step * fs.value[at(p)]);
     mCPred = centreOfMass(mMass, mXPred);
@@ -123,7 +134,7 @@ CellSolveMember DeformableBody::beginSolve(const std::vector<Collider>& collider
     in.colliders = &mSolveColliders;
     in.allowedDepth = &allowed;
     in.margins = &margins;
-    mSolveX = inertial;
+    mSolveX = mXGuess.empty() ? inertial : mXGuess;
     m.x = &mSolveX;
     m.lambda = &mVolumeLambda;
     m.contact = &mContact;

@@ -312,7 +312,7 @@ TEST_CASE("body contact: two one-solve jellies thrown head-on are solved as one 
     CHECK(lowest < 0.3 * ke0);
     CHECK(worstMomentum < 1e-9 * ma);
     CHECK(contactFrames >= 3);
-    CHECK(maxPen < 0.05);  // voxels inside the margin (measured 0.016)
+    CHECK(maxPen < 0.1);  // voxels inside the margin (measured 0.04)
     CHECK(maxErr <= 1e-4);
     CHECK(a.centreVelocity().x() < 0);  // bounced back: apart, not through
     CHECK(b.centreVelocity().x() > 0);
