@@ -473,6 +473,85 @@ struct CellSolver::Run {
     }
 };
 
+/// The contacts between the members of a solve, and each member's per-point lists of those its
+/// points enter (Run::linkStart, links).
+struct CellSolver::ContactSet {
+    const std::vector<std::unique_ptr<Run>>& runs;
+    std::vector<BodyContact> list;
+
+    /// d: how far p is inside the margin (world units).
+    Real gap(const BodyContact& bc) const {
+        const Run& rb = *runs[static_cast<std::size_t>(bc.b)];
+        Vec3 surface = Vec3::Zero();
+        for (std::size_t j = 0; j < 3; ++j) surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
+        return bc.margin - bc.normal.dot(runs[static_cast<std::size_t>(bc.a)]->x[at(bc.p)] - surface);
+    }
+    /// The largest gap, in voxels of the point's body.
+    Real worstGap() const {
+        Real worst = 0;
+        for (const BodyContact& bc : list) worst = std::max(worst, gap(bc) / runs[static_cast<std::size_t>(bc.a)]->h);
+        return worst;
+    }
+
+    /// Finds the contacts at positions x. first: at the start of the solve (and the depths at the
+    /// first guess into depth, for the renderer's ramp); after: a point found inside the other
+    /// body's surface keeps the contact it had (its nearest surface point now may be a side face
+    /// of the other lattice's stair steps).
+    void find(const BodyContactFinder& finder, const std::vector<const std::vector<Vec3>*>& x, bool first,
+              std::vector<CellSolveMember>& members) {
+        std::vector<BodyContact> before;
+        before.swap(list);
+        finder(x, list);
+        auto key = [](const BodyContact& bc) { return std::make_tuple(bc.a, bc.b, bc.p); };
+        auto less = [&](const BodyContact& l, const BodyContact& r) { return key(l) < key(r); };
+        std::sort(before.begin(), before.end(), less);
+        for (BodyContact& bc : list) {
+            if (first || !(gap(bc) > bc.margin)) continue;
+            const auto it = std::lower_bound(before.begin(), before.end(), bc, less);
+            if (it != before.end() && key(*it) == key(bc)) bc = *it;
+        }
+        for (BodyContact& bc : list) {
+            const Run& ra = *runs[static_cast<std::size_t>(bc.a)];
+            bc.stiffness = ra.set.contactStiffness * ra.massOf(bc.p) / (ra.dt * ra.dt);
+            if (first) {
+                Real& depth = (*members[static_cast<std::size_t>(bc.a)].depth)[at(bc.p)];
+                depth = std::max(depth, gap(bc));
+            }
+        }
+        link();
+    }
+
+    /// Each member's lists: per point, the contacts it enters and its role e in each.
+    void link() {
+        for (const auto& r : runs) std::fill(r->linkStart.begin(), r->linkStart.end(), 0);
+        auto each = [&](auto&& f) {
+            for (std::size_t k = 0; k < list.size(); ++k) {
+                const BodyContact& bc = list[k];
+                f(bc.a, bc.p, static_cast<Index>(k), Real(1));
+                for (std::size_t j = 0; j < 3; ++j)
+                    if (bc.w[static_cast<Index>(j)] != 0) f(bc.b, bc.q[j], static_cast<Index>(k), -bc.w[static_cast<Index>(j)]);
+            }
+        };
+        each([&](int m, Index p, Index, Real) { ++runs[static_cast<std::size_t>(m)]->linkStart[at(p) + 1]; });
+        std::vector<std::vector<Index>> fill(runs.size());
+        for (std::size_t i = 0; i < runs.size(); ++i) {
+            Run& r = *runs[i];
+            for (std::size_t p = 1; p < r.linkStart.size(); ++p) r.linkStart[p] += r.linkStart[p - 1];
+            r.links.assign(at(r.linkStart.back()), {});
+            fill[i].assign(r.linkStart.begin(), r.linkStart.end() - 1);
+        }
+        each([&](int m, Index p, Index k, Real e) {
+            runs[static_cast<std::size_t>(m)]->links[at(fill[static_cast<std::size_t>(m)][at(p)]++)] = {k, e};
+        });
+    }
+
+    /// Marks member i's points another body holds at the end.
+    void mark(std::size_t i, std::vector<unsigned char>& contact) const {
+        for (const BodyContact& bc : list)
+            if (static_cast<std::size_t>(bc.a) == i && gap(bc) > -Real(1e-6) * runs[i]->h) contact[at(bc.p)] = 1;
+    }
+};
+
 void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinder& find) {
     const std::vector<Collider> noColliders;
     const std::size_t count = members.size();
@@ -485,91 +564,33 @@ void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinde
         m.contact->assign(m.solver->mMass.size(), 0);
         m.report = CellSolveReport{};
     }
-    std::vector<BodyContact> contacts;
-    // The contacts between the bodies are found once, at the substep's start, where the bodies
-    // are apart: the nearest surface point and its normal there hold for the whole solve. (Found
-    // at x̃ instead, where the bodies overlap by their approach, a point near the rim of the
-    // overlap finds a side face of the other lattice's stair steps nearest, and its push
-    // sideways tore both surfaces: jelly_throw_pair's solve never converged.)
-    auto gapOf = [&](const BodyContact& bc) {  // d: how far p is inside the margin
-        const CellSolver::Run& rb = *runs[static_cast<std::size_t>(bc.b)];
-        Vec3 surface = Vec3::Zero();
-        for (std::size_t j = 0; j < 3; ++j) surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
-        return bc.margin - bc.normal.dot(runs[static_cast<std::size_t>(bc.a)]->x[at(bc.p)] - surface);
-    };
-    std::vector<const std::vector<Vec3>*> positions(count);
-    for (std::size_t i = 0; i < count; ++i)
-        positions[i] = members[i].in.feasible ? members[i].in.feasible : members[i].in.start;
-    auto findContacts = [&](bool first) {
-        std::vector<BodyContact> before;
-        before.swap(contacts);
-        find(positions, contacts);
-        if (!first) {
-            // A point found inside the other body's surface keeps the contact it had (its
-            // nearest surface point now may be a side face of the other lattice's stair steps).
-            auto key = [](const BodyContact& bc) { return std::make_tuple(bc.a, bc.b, bc.p); };
-            std::sort(before.begin(), before.end(), [&](const BodyContact& l, const BodyContact& r) { return key(l) < key(r); });
-            for (BodyContact& bc : contacts) {
-                if (!(gapOf(bc) > bc.margin)) continue;
-                const auto it = std::lower_bound(before.begin(), before.end(), bc,
-                                                 [&](const BodyContact& l, const BodyContact& r) { return key(l) < key(r); });
-                if (it != before.end() && key(*it) == key(bc)) bc = *it;
-            }
-        }
-        for (BodyContact& bc : contacts) {
-            const CellSolver::Run& ra = *runs[static_cast<std::size_t>(bc.a)];
-            bc.stiffness = ra.set.contactStiffness * ra.massOf(bc.p) / (ra.dt * ra.dt);
-            if (first) {  // the depth at x̃ (the renderer's ramp)
-                const CellSolver::Run& rb = *runs[static_cast<std::size_t>(bc.b)];
-                Vec3 surface = Vec3::Zero();
-                for (std::size_t j = 0; j < 3; ++j) surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
-                Real& depth = (*members[static_cast<std::size_t>(bc.a)].depth)[at(bc.p)];
-                depth = std::max(depth, bc.margin - bc.normal.dot(ra.x[at(bc.p)] - surface));
-            }
-        }
-        for (std::size_t i = 0; i < count; ++i) {
-            CellSolver::Run& r = *runs[i];
-            std::fill(r.linkStart.begin(), r.linkStart.end(), 0);
-        }
-        auto each = [&](auto&& f) {
-            for (std::size_t k = 0; k < contacts.size(); ++k) {
-                const BodyContact& bc = contacts[k];
-                f(bc.a, bc.p, static_cast<Index>(k), Real(1));
-                for (std::size_t j = 0; j < 3; ++j)
-                    if (bc.w[static_cast<Index>(j)] != 0)
-                        f(bc.b, bc.q[j], static_cast<Index>(k), -bc.w[static_cast<Index>(j)]);
-            }
-        };
-        each([&](int m, Index p, Index, Real) { ++runs[static_cast<std::size_t>(m)]->linkStart[at(p) + 1]; });
-        for (std::size_t i = 0; i < count; ++i) {
-            CellSolver::Run& r = *runs[i];
-            for (std::size_t p = 1; p < r.linkStart.size(); ++p) r.linkStart[p] += r.linkStart[p - 1];
-            r.links.assign(at(r.linkStart.back()), {});
-        }
-        std::vector<std::vector<Index>> fill(count);
-        for (std::size_t i = 0; i < count; ++i) fill[i].assign(runs[i]->linkStart.begin(), runs[i]->linkStart.end() - 1);
-        each([&](int m, Index p, Index k, Real e) {
-            runs[static_cast<std::size_t>(m)]->links[at(fill[static_cast<std::size_t>(m)][at(p)]++)] = {k, e};
-        });
-    };
-    const Index grain = 64;
+    CellSolver::ContactSet contacts{runs, {}};
+    // The contacts between the bodies are found at the substep's start, where the bodies are
+    // apart (found at x̃, where they overlap by their approach, a point at the rim of the overlap
+    // finds a side face of the other lattice's stair steps nearest, and its push sideways tore
+    // both surfaces: jelly_throw_pair's solve never converged). They are found again where the
+    // bodies are after 4, 12 and every 30 sweeps, once the sweeps have pushed them about the
+    // margin apart, and at convergence, the sweeps going on while one is violated: with the
+    // start's alone, two 4-voxel balls meeting head-on ended 0.12 voxels inside the margin (a
+    // plane's linearisation of a curved surface that squashes), 0.14 with a body in contact's
+    // first guess; with these, 0.04 (every 10 sweeps: 1.4 times the time).
     constexpr int kRefinds = 2;                 // found again at convergence at most this often ...
     constexpr Real kGapTolerance = Real(0.02);  // ... while a contact is this many voxels inside its margin
+    std::vector<const std::vector<Vec3>*> where(count);
+    auto findWhereTheyAre = [&]() {
+        for (std::size_t i = 0; i < count; ++i) where[i] = members[i].x;
+        contacts.find(find, where, false, members);
+    };
     int refinds = 0;
+    const Index grain = 64;
     std::vector<Real> moved(count), worst(count);
     for (int it = 0; it < maxIterations; ++it) {
-        if (find && it == 0) findContacts(true);
-        if (find && (it == 4 || it == 12 || (it > 0 && it % 30 == 0))) {
-            // Found again where the bodies now are, once the first sweeps have pushed them about
-            // the margin apart (each point's nearest surface point is then the one it meets; a
-            // point still inside keeps its contact), after 4, 12 and every 30 sweeps, and at
-            // convergence (below). With the start's contacts alone, two 4-voxel balls meeting
-            // head-on ended 0.12 voxels inside the margin (a plane's linearisation of a curved
-            // surface that squashes) and 0.14 with the first guess of a body in contact; with
-            // these, 0.04. Found again every 10 sweeps, the same balls took 1.4 times the time.
-            for (std::size_t i = 0; i < count; ++i) positions[i] = members[i].x;
-            findContacts(false);
+        if (find && it == 0) {
+            for (std::size_t i = 0; i < count; ++i)
+                where[i] = members[i].in.feasible ? members[i].in.feasible : members[i].in.start;
+            contacts.find(find, where, true, members);
         }
+        if (find && (it == 4 || it == 12 || (it > 0 && it % 30 == 0))) findWhereTheyAre();
         for (auto& r : runs) r->rotations(it);
         std::fill(moved.begin(), moved.end(), Real(0));
         for (std::size_t colour = 0; colour < 8; ++colour)
@@ -578,7 +599,7 @@ void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinde
                 const std::vector<Index>& points = r.solver.mColour[colour];
                 const Index n = static_cast<Index>(points.size());
                 std::vector<Real> move(at(n));
-                parallelFor(n, [&](Index k) { move[at(k)] = r.update(points[at(k)], contacts, runs); }, grain);
+                parallelFor(n, [&](Index k) { move[at(k)] = r.update(points[at(k)], contacts.list, runs); }, grain);
                 for (Real v : move) moved[i] = std::max(moved[i], v);
             }
         bool all = true;
@@ -593,20 +614,9 @@ void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinde
             all = all && rep.converged;
         }
         if (all && find && refinds < kRefinds) {
-            // Converged: the contacts found again where the bodies now are, and the sweeps go on
-            // while any of them is violated past the tolerance.
             ++refinds;
-            for (std::size_t i = 0; i < count; ++i) positions[i] = members[i].x;
-            findContacts(false);
-            Real worstGap = 0;
-            for (const BodyContact& bc : contacts) {
-                const CellSolver::Run& rb = *runs[static_cast<std::size_t>(bc.b)];
-                Vec3 surface = Vec3::Zero();
-                for (std::size_t j = 0; j < 3; ++j) surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
-                const Real d = bc.margin - bc.normal.dot(runs[static_cast<std::size_t>(bc.a)]->x[at(bc.p)] - surface);
-                worstGap = std::max(worstGap, d / runs[static_cast<std::size_t>(bc.a)]->h);
-            }
-            if (worstGap > kGapTolerance) {
+            findWhereTheyAre();
+            if (contacts.worstGap() > kGapTolerance) {
                 for (CellSolveMember& m : members) m.report.converged = false;
                 continue;
             }
@@ -616,15 +626,7 @@ void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinde
     for (std::size_t i = 0; i < count; ++i) {
         CellSolveMember& m = members[i];
         runs[i]->finish(*m.contact, *m.depth, m.report);
-        // the points another body holds at the end
-        for (const BodyContact& bc : contacts) {
-            if (static_cast<std::size_t>(bc.a) != i) continue;
-            const CellSolver::Run& rb = *runs[static_cast<std::size_t>(bc.b)];
-            Vec3 surface = Vec3::Zero();
-            for (std::size_t j = 0; j < 3; ++j) surface += bc.w[static_cast<Index>(j)] * rb.x[at(bc.q[j])];
-            if (bc.margin - bc.normal.dot(m.x->at(at(bc.p)) - surface) > -Real(1e-6) * runs[i]->h)
-                (*m.contact)[at(bc.p)] = 1;
-        }
+        contacts.mark(i, *m.contact);
         for (std::size_t p = 0; p < m.contact->size(); ++p)
             if (!(*m.contact)[p]) (*m.depth)[p] = 0;
         m.report.contacts = std::count(m.contact->begin(), m.contact->end(), 1);

@@ -150,7 +150,8 @@ public:
 
 private:
     friend void solveTogether(std::vector<CellSolveMember>& members, const BodyContactFinder& find);
-    struct Run;  // one member's state over a solve (cell_solve.cpp)
+    struct Run;         // one member's state over a solve (cell_solve.cpp)
+    struct ContactSet;  // the contacts between the members (cell_solve.cpp)
     struct Slot {
         Index cell;
         int corner;
