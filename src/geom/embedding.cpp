@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_set>
 
 namespace dgv {
 
@@ -71,41 +72,77 @@ Real fitBlendAt(Real distance) {
     return t * t * (3 - 2 * t);
 }
 
-/// The moving-least-squares affine fit at lattice coordinate u over the points within kFitRadius
-/// of `anchor`, reached through the 6-neighbour network (so a fit never joins two parts across a
-/// gap). Writes the points and weights alpha_j (sum 1, sum alpha_j u_j = u); false when the
-/// points do not span 3-D.
+/// The walk gathering a fit's points goes kFitWalkMargin voxels past its weights' reach, so a point
+/// does not join the fit with a weight where a path to it opens as u moves.
+constexpr Real kFitWalkMargin = 2;
+
+/// The moving-least-squares affine fit at lattice coordinate u, centred on u itself: the points
+/// within R = |u − u(anchor)| + kFitRadius of u, reached from `anchor` through the 6-neighbour
+/// network within R + kFitWalkMargin (so a fit never joins two parts across a gap), weighted
+/// (1 − r²/R²)² by their distance r from u. The weights, and so the fit, change continuously along the surface: the
+/// anchor's distance is the distance to the nearest point, continuous in u, while the anchor
+/// itself jumps (a fit centred on the anchor gave two vertices a quarter voxel apart on a
+/// spider's leg the fits of neighbouring anchors, extrapolated 1.5 voxels; they landed 8 rest
+/// lengths apart). Writes the points, the weights alpha_j (sum 1, sum alpha_j u_j = u) and their
+/// derivatives in u (sum 0, sum grad_j u_jᵀ = 1); false when the points do not span 3-D.
 bool neighbourhoodFit(const Lattice& lat, Index anchor, const Vec3& u, std::vector<Index>& points,
-                      std::vector<Real>& alphas) {
-    const Vec3 ua = lat.coords[at(anchor)].cast<Real>();
-    const Real r2Max = kFitRadius * kFitRadius;
+                      std::vector<Real>& alphas, std::vector<Vec3>& gradients) {
+    const Real radius = (lat.coords[at(anchor)].cast<Real>() - u).norm() + kFitRadius;
+    const Real r2Max = radius * radius;
+    const Real r2Walk = (radius + kFitWalkMargin) * (radius + kFitWalkMargin);
     points.assign(1, anchor);
+    std::unordered_set<Index> seen{anchor};
     for (std::size_t head = 0; head < points.size(); ++head) {
         for (const Index q : lat.neighbours[at(points[head])]) {
-            if (q == kNoPoint || (lat.coords[at(q)].cast<Real>() - ua).squaredNorm() > r2Max) continue;
-            if (std::find(points.begin(), points.end(), q) == points.end()) points.push_back(q);
+            if (q == kNoPoint || (lat.coords[at(q)].cast<Real>() - u).squaredNorm() >= r2Walk) continue;
+            if (seen.insert(q).second) points.push_back(q);
         }
     }
+    points.erase(std::remove_if(points.begin(), points.end(),
+                                [&](Index q) { return (lat.coords[at(q)].cast<Real>() - u).squaredNorm() >= r2Max; }),
+                 points.end());
     std::sort(points.begin(), points.end());  // the sums below in one order whatever the walk
-    Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+    // The weighted least-squares affine map about the points' weighted mean ū:
+    // alpha_j = w_j (1/W + (u_j − ū)ᵀ S⁻¹ (u − ū)), grad_j = w_j S⁻¹ (u_j − ū), with
+    // S = sum_j w_j (u_j − ū)(u_j − ū)ᵀ.
     std::vector<Real> w(points.size());
+    Real wSum = 0;
+    Vec3 mean = Vec3::Zero();
     for (std::size_t j = 0; j < points.size(); ++j) {
-        const Vec3 d = lat.coords[at(points[j])].cast<Real>() - ua;
-        const Real f = Real(1) - d.squaredNorm() / r2Max;
+        const Real f = Real(1) - (lat.coords[at(points[j])].cast<Real>() - u).squaredNorm() / r2Max;
         w[j] = f * f;
-        const Eigen::Vector4d b(1, d.x(), d.y(), d.z());
-        m += w[j] * b * b.transpose();
+        wSum += w[j];
+        mean += w[j] * lat.coords[at(points[j])].cast<Real>();
     }
-    // A neighbourhood that is a sheet or a rod leaves the fit undetermined off it.
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(m, Eigen::EigenvaluesOnly);
-    if (!(eig.eigenvalues()(0) > Real(1e-3) * eig.eigenvalues()(3))) return false;
-    const Vec3 du = u - ua;
-    const Eigen::Vector4d c = m.ldlt().solve(Eigen::Vector4d(1, du.x(), du.y(), du.z()));
-    alphas.resize(points.size());
+    mean /= wSum;
+    Mat3 spread = Mat3::Zero();
     for (std::size_t j = 0; j < points.size(); ++j) {
-        const Vec3 d = lat.coords[at(points[j])].cast<Real>() - ua;
-        alphas[j] = w[j] * (c(0) + c(1) * d.x() + c(2) * d.y() + c(3) * d.z());
+        const Vec3 d = lat.coords[at(points[j])].cast<Real>() - mean;
+        spread += w[j] * d * d.transpose();
     }
+    // A neighbourhood that is a sheet or a rod leaves the fit undetermined off it: its thinnest
+    // direction must spread a tenth of a voxel (rms) at least.
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(spread / wSum, Eigen::EigenvaluesOnly);
+    if (!(eig.eigenvalues()(0) > Real(0.01))) return false;
+    const Eigen::LDLT<Mat3> spreadInv(spread);
+    const Vec3 toU = spreadInv.solve(u - mean);
+    alphas.resize(points.size());
+    gradients.resize(points.size());
+    for (std::size_t j = 0; j < points.size(); ++j) {
+        const Vec3 d = lat.coords[at(points[j])].cast<Real>() - mean;
+        alphas[j] = w[j] * (1 / wSum + d.dot(toU));
+        gradients[j] = w[j] * spreadInv.solve(d);
+    }
+    // One refinement of the two identities the affine reproduction rests on (sum 1, sum alpha_j
+    // u_j = u): far out the weights extrapolate, and their round-off grew with the points.
+    Real sum = 0;
+    Vec3 reached = Vec3::Zero();
+    for (std::size_t j = 0; j < points.size(); ++j) {
+        sum += alphas[j];
+        reached += alphas[j] * (lat.coords[at(points[j])].cast<Real>() - mean);
+    }
+    const Vec3 miss = (u - mean) - reached;
+    for (std::size_t j = 0; j < points.size(); ++j) alphas[j] += (1 - sum) * w[j] / wSum + gradients[j].dot(miss);
     return true;
 }
 
@@ -134,6 +171,7 @@ MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVer
     emb.fitBlend.assign(nv, Real(0));
     std::vector<std::vector<Index>> fitPoints(nv);
     std::vector<std::vector<Real>> fitWeights(nv);
+    std::vector<std::vector<Vec3>> fitGradients(nv);
     const Real invH = Real(1) / lat.spacing;
     parallelFor(static_cast<Index>(nv), [&](Index vi) {
         const std::size_t v = at(vi);
@@ -181,20 +219,23 @@ MeshEmbedding embedVertices(const Lattice& lat, const std::vector<Vec3>& restVer
         emb.anchor[v] = anchor;
         emb.offset[v] = u - lat.coords[at(anchor)].cast<Real>();
         const Real blend = full ? Real(0) : fitOutside ? Real(1) : fitBlendAt(emb.offset[v].norm());
-        if (blend > 0 && neighbourhoodFit(lat, anchor, u, fitPoints[v], fitWeights[v])) {
+        if (blend > 0 && neighbourhoodFit(lat, anchor, u, fitPoints[v], fitWeights[v], fitGradients[v])) {
             emb.fitBlend[v] = blend;
         } else {
             fitPoints[v].clear();
             fitWeights[v].clear();
+            fitGradients[v].clear();
         }
     });
     emb.fitStart.assign(nv + 1, 0);
     for (std::size_t v = 0; v < nv; ++v) emb.fitStart[v + 1] = emb.fitStart[v] + Index(fitPoints[v].size());
     emb.fitPoint.reserve(at(emb.fitStart[nv]));
     emb.fitWeight.reserve(at(emb.fitStart[nv]));
+    emb.fitGradient.reserve(at(emb.fitStart[nv]));
     for (std::size_t v = 0; v < nv; ++v) {
         emb.fitPoint.insert(emb.fitPoint.end(), fitPoints[v].begin(), fitPoints[v].end());
         emb.fitWeight.insert(emb.fitWeight.end(), fitWeights[v].begin(), fitWeights[v].end());
+        emb.fitGradient.insert(emb.fitGradient.end(), fitGradients[v].begin(), fitGradients[v].end());
     }
     return emb;
 }

@@ -29,7 +29,7 @@ namespace dgv {
 /// fully at kFitFull (a smoothstep in between, so the surface stays continuous).
 constexpr Real kFitFrom = 1.5;
 constexpr Real kFitFull = 2.5;
-constexpr Real kFitRadius = 2.5;  ///< lattice units around the anchor
+constexpr Real kFitRadius = 2.5;  ///< lattice units beyond the anchor's distance, around the vertex
 
 struct MeshEmbedding {
     /// Per vertex: the 8 corner points of its lattice cell and trilinear weights when all 8
@@ -47,6 +47,10 @@ struct MeshEmbedding {
     std::vector<Index> fitStart;  ///< #V + 1
     std::vector<Index> fitPoint;
     std::vector<Real> fitWeight;
+    /// The fit's derivative in lattice coordinates: ∂v'/∂u = sum_j x(p_j) fitGradient[j]ᵀ over the
+    /// same range (sum_j fitGradient[j] = 0, sum_j fitGradient[j] u(p_j)ᵀ = 1): the frame of a
+    /// fitted vertex, which the surface check compares its edges with.
+    std::vector<Vec3> fitGradient;
 
     std::size_t size() const { return anchor.size(); }
     /// Whether vertex v is carried trilinearly (else by its anchor's frame).
@@ -62,9 +66,11 @@ struct MeshEmbedding {
 /// Corners are ordered (di, dj, dk) in {0,1}^3 with index di + 2 dj + 4 dk. The nearest-point
 /// search walks cubic shells outward from the nearest grid point and stops once no closer
 /// point can exist: O(r^3) for a vertex r voxels from the lattice. The fit of a far vertex is
-/// the affine least-squares fit over the material points within kFitRadius of its anchor
-/// (reached through the 6-neighbour network), weighted (1 - r²/R²)² by their distance r from
-/// the anchor; it is skipped (s = 0) where those points do not span 3-D (a one-voxel sheet).
+/// the affine least-squares fit centred on the vertex: the material points within
+/// R = d + kFitRadius of it (d its distance to its anchor; reached from the anchor through the
+/// 6-neighbour network), weighted (1 - r²/R²)² by their distance r from the vertex, so the fit
+/// changes continuously along the surface where anchors change; it is skipped (s = 0) where
+/// those points do not spread in 3-D (a one-voxel sheet).
 /// fitOutside: every vertex outside the cells follows its neighbourhood's fit wholly (the
 /// one-solve step's bodies: a boundary layer pressed onto a collider has rough frames at the
 /// lattice scale, which the anchor's frame extrapolates into folds).

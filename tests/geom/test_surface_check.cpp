@@ -112,6 +112,30 @@ TEST_CASE("surface check: a vertex thrown out by its anchor's second derivative 
     CHECK(torn.worstStretch > kTearRatio);
 }
 
+TEST_CASE("surface check: a fitted vertex is judged by its fit's frame, not its anchor's", "[geom][surface]") {
+    // The one-solve step's embedding (fitOutside): a vertex outside the cells follows the affine
+    // fit of its neighbourhood. Its anchor's frame at the boundary is a one-sided difference that
+    // can disagree with the fit by several times; here the anchors' frames are set to the rest
+    // frame while the lattice is stretched 5× along x, so only the fit predicts the edges.
+    Fixture f(makeSphere(0.5, 32, 16));
+    f.emb = embedVertices(f.lat, f.mesh.vertices, true);
+    REQUIRE(f.emb.fittedVertices() > 100);
+    const SurfaceCheck stretched = f.moved([](const Vec3& x) { return Vec3(5 * x.x(), x.y() / 5, x.z()); });
+    REQUIRE(stretched.ok());
+    for (std::size_t a = 0; a < 3; ++a)
+        for (auto& t : f.state.tangent[a]) t = f.lat.spacing * Vec3::Unit(static_cast<Eigen::Index>(a));
+    const SurfaceCheck judged = f.check();
+    CHECK(judged.tornEdges == 0);
+    CHECK(judged.worstStretch < 2);
+    // ...while a fitted vertex thrown 10 voxels off its fit is still a tear.
+    std::size_t v = 0;
+    while (f.emb.trilinear(v)) ++v;
+    f.deformed[v] += Vec3(0, 10 * f.lat.spacing, 0);
+    const SurfaceCheck torn = f.check();
+    CHECK_FALSE(torn.ok());
+    CHECK(torn.tornEdges >= 1);
+}
+
 TEST_CASE("surface check: a surface folded over is flipped, a squashed one is not", "[geom][surface]") {
     // A box's top face, subdivided: fold its +x half over onto the −x half about the line x = 0
     // (the vertices with x > 0 go to (−x, y + 2|x|·0, ...)), the lattice at rest. The triangles
