@@ -20,6 +20,23 @@
 
 namespace dgv {
 
+namespace {
+
+/// Union-find over 0..n-1 (path halving): the groups of bodies that meet.
+struct DisjointSets {
+    std::vector<std::size_t> parent;
+    explicit DisjointSets(std::size_t n) : parent(n) {
+        for (std::size_t i = 0; i < n; ++i) parent[i] = i;
+    }
+    std::size_t root(std::size_t i) {
+        while (parent[i] != i) i = parent[i] = parent[parent[i]];
+        return i;
+    }
+    void join(std::size_t a, std::size_t b) { parent[root(a)] = root(b); }
+};
+
+}  // namespace
+
 Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>& lattices, bool always)
     : mScene(scene) {
     DGV_CHECK_EQ(lattices.size(), scene.objects.size());
@@ -406,24 +423,19 @@ std::vector<std::vector<std::size_t>> Simulation::solveGroups(const std::vector<
     // One-solve bodies close enough to touch this substep (an object collider between them)
     // are solved as one system; union-find over those pairs.
     const std::size_t n = mBodies.size();
-    std::vector<std::size_t> parent(n);
-    for (std::size_t i = 0; i < n; ++i) parent[i] = i;
-    auto root = [&](std::size_t i) {
-        while (parent[i] != i) i = parent[i] = parent[parent[i]];
-        return i;
-    };
+    DisjointSets sets(n);
     auto one = [&](std::size_t i) { return mBodies[i] && mBodies[i]->settings().solver == StepSolver::One; };
     for (std::size_t i = 0; i < n; ++i) {
         if (!one(i)) continue;
         for (const Collider& c : colliders[i])
             if (c.object && c.body >= 0 && one(static_cast<std::size_t>(c.body)))
-                parent[root(i)] = root(static_cast<std::size_t>(c.body));
+                sets.join(i, static_cast<std::size_t>(c.body));
     }
     std::vector<std::vector<std::size_t>> members(n), out(n);
     for (std::size_t i = 0; i < n; ++i)
-        if (one(i)) members[root(i)].push_back(i);
+        if (one(i)) members[sets.root(i)].push_back(i);
     for (std::size_t i = 0; i < n; ++i)
-        if (one(i)) out[i] = members[root(i)];
+        if (one(i)) out[i] = members[sets.root(i)];
     return out;
 }
 
@@ -487,18 +499,13 @@ void Simulation::keepPairMomentum(const std::vector<std::vector<Collider>>& coll
     // a squashed body's spring-back pushes through position): the difference is removed as one
     // velocity shift of the whole group, which keeps every relative velocity.
     const std::size_t n = mBodies.size();
-    std::vector<std::size_t> parent(n);
-    for (std::size_t i = 0; i < n; ++i) parent[i] = i;
-    auto root = [&](std::size_t i) {
-        while (parent[i] != i) i = parent[i] = parent[parent[i]];
-        return i;
-    };
+    DisjointSets sets(n);
     std::vector<unsigned char> touches(n, 0);
     for (std::size_t i = 0; i < n; ++i)
         for (const Collider& c : colliders[i])
             if (c.object && c.pairContact && c.body >= 0) {
                 touches[i] = 1;
-                parent[root(i)] = root(static_cast<std::size_t>(c.body));
+                sets.join(i, static_cast<std::size_t>(c.body));
             }
     std::vector<unsigned char> excluded(n, 0);
     std::vector<Vec3> gained(n, Vec3::Zero());
@@ -506,13 +513,13 @@ void Simulation::keepPairMomentum(const std::vector<std::vector<Collider>>& coll
     for (std::size_t i = 0; i < n; ++i) {
         if (!touches[i]) continue;
         const DeformableBody& b = *mBodies[i];
-        const std::size_t r = root(i);
+        const std::size_t r = sets.root(i);
         if (staticContact[i] || b.anyPinned()) excluded[r] = 1;
         gained[r] += b.totalMass() * (b.centreVelocity() - b.predictedCentreVelocity());
         mass[r] += b.totalMass();
     }
     for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t r = root(i);
+        const std::size_t r = sets.root(i);
         if (touches[i] && !excluded[r]) mBodies[i]->shiftVelocity(-gained[r] / mass[r]);
     }
 }
