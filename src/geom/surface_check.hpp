@@ -23,7 +23,8 @@
 ///    anchor's cof(F) n0 a goo ball spread on the ground had one triangle "flipped" at the
 ///    bottom of a smooth surface; the pair test finds none there).
 ///  - *torn edges*: an edge longer than kTearRatio · max_v |F_v e0| + kTearSlack h (one end
-///    thrown away from the other).
+///    thrown away from the other); for a vertex following its neighbourhood's fit, F_v is the
+///    larger of its anchor's frame and the frame of the rule that carries it.
 
 #include "base/types.hpp"
 #include "geom/embedding.hpp"
