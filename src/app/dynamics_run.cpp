@@ -243,6 +243,17 @@ int DynamicsRun::restoreCheckpoint(int frame) {
     // skips only files already read good.
     int badVdb = -1;
     std::string badWhy;
+    // Checkpoints passed over because an output of a frame they skip is not whole: counted, and
+    // the first reason told once.
+    int notUsed = 0, notUsedHigh = -1, notUsedLow = -1;
+    std::string notUsedWhy;
+    auto passOver = [&](int k, const std::string& why) {
+        if (notUsed++ == 0) {
+            notUsedHigh = k;
+            notUsedWhy = why;
+        }
+        notUsedLow = k;
+    };
     for (int k = frame; k >= lowest && restored < 0; --k) {
         const fs::path path = stateFilePath(mScene.output.dir, mScene.name, k);
         std::error_code ec;
@@ -275,7 +286,7 @@ int DynamicsRun::restoreCheckpoint(int frame) {
                     if (!badWhy.empty()) badVdb = f;
                 }
             if (badVdb >= 0 && badVdb <= k) {
-                logInfo(path.string() + ": not used: the VDB file of frame " + std::to_string(badVdb) + " " + badWhy);
+                passOver(k, "the VDB file of frame " + std::to_string(badVdb) + " " + badWhy);
                 continue;
             }
         }
@@ -292,7 +303,7 @@ int DynamicsRun::restoreCheckpoint(int frame) {
                     }
                 }
             if (!why.empty()) {
-                logInfo(path.string() + ": not used: the mesh cache file " + why);
+                passOver(k, "the mesh cache file " + why);
                 continue;
             }
         }
@@ -307,6 +318,10 @@ int DynamicsRun::restoreCheckpoint(int frame) {
         mDone = k;
         restored = k;
     }
+    if (notUsed > 0)
+        logInfo("resume: " + std::to_string(notUsed) + " state checkpoint" + (notUsed > 1 ? "s" : "") + " (frame" +
+                (notUsed > 1 ? "s " + std::to_string(notUsedLow) + "-" : " ") + std::to_string(notUsedHigh) +
+                ") not used: " + notUsedWhy + "; the frames after the checkpoint used are made again");
     if (stale > 0)
         logWarning("ignored " + std::to_string(stale) + " state checkpoint" + (stale > 1 ? "s" : "") + " (" +
                    firstStale + (stale > 1 ? "; ..." : "") + "); they are rewritten as the frames are simulated");

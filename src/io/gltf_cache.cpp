@@ -2,6 +2,7 @@
 
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checksum.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -182,7 +183,7 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
     Json doc = {{"asset",
                  {{"version", "2.0"},
                   {"generator", info.generator},
-                  {"extras", {{"dgv_key", info.key}, {"dgv_fps", info.fps}}}}},
+                  {"extras", {{"dgv_key", info.key}, {"dgv_fps", info.fps}, {"dgv_checksum", checksumPlaceholder()}}}}},
                 {"scene", 0},
                 {"scenes", Json::array({{{"nodes", sceneNodes}}})},
                 {"nodes", nodes},
@@ -215,6 +216,7 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
         putU32(out, kChunkBin);
         out += b.bin;
     }
+    sealChecksum(out);
     return out;
 }
 

@@ -4,6 +4,7 @@
 #include "base/image.hpp"
 #include "geom/triangle_mesh.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checksum.hpp"
 #include "io/read_file.hpp"
 
 #include <cmath>
@@ -29,6 +30,7 @@ std::string plyHeader(const MeshCacheFrame& f, std::size_t vertices, std::size_t
       << "comment dgv mesh cache: object " << f.object << "\n"
       << "comment dgv_frame " << f.frame << "\n"
       << "comment dgv_key " << f.key << "\n"
+      << "comment " << checksumPlaceholder() << "\n"
       << "element vertex " << vertices << "\n"
       << "property float x\nproperty float y\nproperty float z\n"
       << "property float nx\nproperty float ny\nproperty float nz\n"
@@ -51,6 +53,17 @@ void putInt(std::string& out, int v) {
     unsigned char b[4];
     std::memcpy(b, &v, 4);
     out.append(reinterpret_cast<const char*>(b), 4);
+}
+
+/// The file's seal (io/checksum.hpp), checked after the header's own tests so that a truncated
+/// or foreign file is named as such: any other byte changed anywhere in the file.
+std::string sealProblem(const fs::path& path) {
+    try {
+        const std::string bytes = readInputFile(path, "mesh cache frame", std::uintmax_t(1) << 36);
+        return checksumProblem(bytes.data(), bytes.size());
+    } catch (const std::exception& e) {
+        return std::string("cannot be read: ") + e.what();
+    }
 }
 
 }  // namespace
@@ -92,7 +105,8 @@ void writeMeshCacheFrame(const fs::path& path, MeshCacheFormat format, const Mes
         }
     } else {
         std::ostringstream o;
-        o << "# dgv mesh cache: object " << f.object << "\n# dgv_frame " << f.frame << "\n# dgv_key " << f.key << "\n";
+        o << "# dgv mesh cache: object " << f.object << "\n# dgv_frame " << f.frame << "\n# dgv_key " << f.key << "\n# "
+          << checksumPlaceholder() << "\n";
         char line[128];
         for (const Vec3& p : x) {
             std::snprintf(line, sizeof line, "v %.9g %.9g %.9g\n", p.x(), p.y(), p.z());
@@ -108,6 +122,7 @@ void writeMeshCacheFrame(const fs::path& path, MeshCacheFormat format, const Mes
         o << kObjEnd << "\n";
         out = o.str();
     }
+    sealChecksum(out);
     writeTextAtomically(path, out);
 }
 
@@ -143,7 +158,7 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     if (gotKey != key) return "is of another version of the scene";
     if (ply) {
         if (!ended || size != headerBytes + vertices * kPlyVertexBytes + faces * kPlyFaceBytes) return "is truncated";
-        return "";
+        return sealProblem(path);
     }
     // OBJ: the last line is the end line.
     const std::size_t tail = std::strlen(kObjEnd) + 1;
@@ -152,7 +167,7 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     in.seekg(static_cast<std::streamoff>(size - tail));
     std::string last;
     std::getline(in, last);
-    return last == kObjEnd ? "" : "is truncated";
+    return last == kObjEnd ? sealProblem(path) : "is truncated";
 }
 
 MeshCacheData readMeshCacheFrame(const fs::path& path) {

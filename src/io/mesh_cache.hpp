@@ -6,7 +6,8 @@
 /// with positions, vertex normals, the object's colour (8-bit sRGB) and `contact` (a float per
 /// vertex: 1 where the vertex's lattice cell is all in the contact set R, 0 where none of it is);
 /// OBJ with positions and normals (`vn`, `f v//vn`). Each file carries its frame and the scene's
-/// frame key in comments, so --resume keeps only files of this version of the scene, and is
+/// frame key in comments, and its checksum (io/checksum.hpp), so --resume keeps only whole files
+/// of this version of the scene; each is
 /// written to a temporary name and renamed. `gltf` writes the PLY sequence too, and at the end of
 /// the run assembles it into one animated glTF 2.0 file (io/gltf_cache.hpp).
 
@@ -45,8 +46,9 @@ std::filesystem::path meshCachePath(const std::filesystem::path& dir, const std:
 void writeMeshCacheFrame(const std::filesystem::path& path, MeshCacheFormat format, const MeshCacheFrame& frame);
 
 /// Why the file at `path` is not a complete cache file of `frame` with key `key` ("" when it
-/// is): missing, truncated (its size is not what its header declares; OBJ: no end line), another
-/// frame's, or of another version of the scene.
+/// is): missing, unsealed or corrupt (every byte is checked against the file's own checksum,
+/// io/checksum.hpp), truncated (its size is not what its header declares; OBJ: no end line),
+/// another frame's, or of another version of the scene.
 std::string meshCacheFileProblem(const std::filesystem::path& path, MeshCacheFormat format, int frame,
                                  const std::string& key);
 

@@ -5,6 +5,7 @@
 #include "base/check.hpp"
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checksum.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -243,31 +244,7 @@ void writePayload(W& w, const StateCheckpoint& c) {
 
 }  // namespace
 
-std::uint64_t stateChecksum(const char* data, std::size_t n) {
-    // Four lanes of 64-bit words, each FNV-1a's xor and multiply followed by an xor-shift that
-    // carries the high bits down; the lanes, the tail bytes and the length folded together and
-    // finished with splitmix64's mixer. Words are read in the machine's byte order, which the
-    // header records (a file of the other order is refused before its checksum is read).
-    constexpr std::uint64_t kBasis = 1469598103934665603ull, kPrime = 1099511628211ull;
-    std::uint64_t lane[4] = {kBasis, kBasis ^ 1, kBasis ^ 2, kBasis ^ 3};
-    std::size_t i = 0;
-    for (; i + 32 <= n; i += 32)
-        for (int l = 0; l < 4; ++l) {
-            std::uint64_t w;
-            std::memcpy(&w, data + i + 8 * static_cast<std::size_t>(l), sizeof w);
-            const std::uint64_t x = (lane[l] ^ w) * kPrime;
-            lane[l] = x ^ (x >> 29);
-        }
-    std::uint64_t h = kBasis;
-    for (std::uint64_t l : lane) h = (h ^ l) * kPrime;
-    for (; i < n; ++i) h = (h ^ static_cast<unsigned char>(data[i])) * kPrime;
-    h = (h ^ static_cast<std::uint64_t>(n)) * kPrime;
-    h ^= h >> 30;
-    h *= 0xbf58476d1ce4e5b9ull;
-    h ^= h >> 27;
-    h *= 0x94d049bb133111ebull;
-    return h ^ (h >> 31);
-}
+std::uint64_t stateChecksum(const char* data, std::size_t n) { return checksum64(data, n); }
 
 std::string serializeState(const StateCheckpoint& c) {
     // One buffer of the file's exact size: the header, the payload written after it, then the

@@ -35,8 +35,7 @@ inline constexpr std::uint32_t kStateFormatVersion =
          ///< body's lattice and surface; 9: the payload's checksum over 64-bit words (stateChecksum); 10: the one-solve
          ///< step's rest stretches and the step before's positions and velocities (StepSolver::One)
 
-/// The payload's checksum: FNV-1a's step on four lanes of 64-bit words, folded and mixed
-/// (state_file.cpp): 3.5 ms for 14 MB, where byte-wise FNV-1a took 17 ms.
+/// The payload's checksum (io/checksum.hpp, checksum64).
 std::uint64_t stateChecksum(const char* data, std::size_t n);
 
 struct StateCheckpoint {

@@ -9,6 +9,7 @@
 #include "deform/resample.hpp"
 #include "base/parallel.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checksum.hpp"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/DelayedLoadMetadata.h>
@@ -813,6 +814,7 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
     meta.insertMeta("dgv_fps", openvdb::DoubleMetadata(info.fps));
     meta.insertMeta("dgv_up_axis", openvdb::StringMetadata(info.upAxis));
     meta.insertMeta("dgv_units", openvdb::StringMetadata("m"));
+    meta.insertMeta("dgv_checksum", openvdb::StringMetadata(checksumPlaceholder()));  // sealed below
     const auto t1 = Clock::now();
     writeFileAtomically(path, [&](const fs::path& tmp) {
         CheckedArchive archive;
@@ -821,6 +823,7 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         archive.writeFile(tmp, constGrids, 2 * objects.size(), later, meta, settings.writer == VdbWriter::Parallel,
                           report.stages);
         verifyWritten(tmp, names);
+        sealFileChecksum(tmp);
     });
     report.writeSeconds = since(t1);
     report.stages.verify = report.writeSeconds - report.stages.file;

@@ -34,9 +34,10 @@ SdfGrid meshLevelSet(const TriangleMesh& mesh, Real voxelSize, int exteriorBandV
 
 /// Whether `path` is a complete frame `frame` of the VDB cache of the scene whose frame key is
 /// `key` (io/vdb_cache.hpp writes both into the file's metadata): empty when it is, else why
-/// not ("missing", "does not read: ...", "holds frame N", "of another version of the scene",
-/// "has no grids"). Every grid is read in full, so a truncated or cut file does not pass; a
-/// flipped bit that leaves the compressed data decodable is not seen.
+/// not ("missing", "has no checksum", "is corrupt (its checksum does not match)", "does not
+/// read: ...", "holds frame N", "of another version of the scene", "has no grids"). The file's
+/// seal (io/checksum.hpp) is checked before OpenVDB reads it, so any changed byte is found; then
+/// OpenVDB's default reader loads every leaf of every grid.
 std::string vdbFrameProblem(const std::filesystem::path& path, int frame, const std::string& key);
 
 }  // namespace dgv

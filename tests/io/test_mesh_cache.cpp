@@ -1,6 +1,6 @@
 // The mesh cache (io/mesh_cache.hpp): a frame written as PLY or OBJ reads back through assimp
 // (dgv's own importer) with its vertices and triangles; the PLY carries normals, the object's
-// colour and the contact value; a truncated, foreign or other-frame file is named as such; and
+// colour and the contact value; a truncated, garbled, foreign or other-frame file is named as such; and
 // a simulation with --mesh writes every object's every frame and resumes without keeping a bad one.
 #include "io/mesh_cache.hpp"
 
@@ -91,6 +91,21 @@ TEST_CASE("mesh cache: truncated, foreign and other frames' files are named", "[
         const std::string whole = e2e::readAll(path);
         std::ofstream(path, std::ios::binary) << whole.substr(0, whole.size() - 5);
         CHECK(meshCacheFileProblem(path, format, 3, "k1") == "is truncated");
+        {
+            // 64 bytes of garbage in the middle of a sphere's frame, its size and header
+            // unchanged, and one flipped bit in its data: the file's own checksum finds both.
+            const TriangleMesh sphere = makeSphere(0.5, 24, 12);
+            writeMeshCacheFrame(path, format, frameOf("box", 3, "k1", sphere));
+            const std::string sealed = e2e::readAll(path);
+            std::string garbled = sealed;
+            for (std::size_t i = 0; i < 64; ++i) garbled[sealed.size() / 2 + i] = static_cast<char>(i * 37);
+            std::ofstream(path, std::ios::binary) << garbled;
+            CHECK(meshCacheFileProblem(path, format, 3, "k1") == "is corrupt (its checksum does not match)");
+            std::string flipped = sealed;
+            flipped[sealed.size() * 3 / 4] = static_cast<char>(flipped[sealed.size() * 3 / 4] ^ 4);
+            std::ofstream(path, std::ios::binary) << flipped;
+            CHECK(meshCacheFileProblem(path, format, 3, "k1") == "is corrupt (its checksum does not match)");
+        }
         std::ofstream(path, std::ios::binary) << "not a mesh\n";
         CHECK(meshCacheFileProblem(path, format, 3, "k1") == "has no dgv frame (not written by dgv)");
     }
@@ -127,4 +142,16 @@ TEST_CASE("e2e: simulate --mesh writes every object's frames, and --resume re-ma
     REQUIRE(r.exitCode == 0);
     CHECK_THAT(r.err, Catch::Contains("ball.0003.ply is truncated"));
     CHECK(e2e::readAll(mesh / "ball.0003.ply") == frame3);
+    // 64 garbage bytes in the middle of frame 2, its size and header intact: found by its
+    // checksum, and frames 2-4 are made again, one line saying why.
+    const std::string frame2 = e2e::readAll(mesh / "ball.0002.ply");
+    std::string garbled = frame2;
+    for (std::size_t i = 0; i < 64; ++i) garbled[frame2.size() / 2 + i] = static_cast<char>(255 - i);
+    std::ofstream(mesh / "ball.0002.ply", std::ios::binary) << garbled;
+    const e2e::Run g = e2e::runDgvIn(dir.path(), "--progress log simulate s.json --out o --mesh ply --resume");
+    INFO(g.err);
+    REQUIRE(g.exitCode == 0);
+    CHECK_THAT(g.err, Catch::Contains("resume: 3 state checkpoints (frames 2-4) not used: the mesh cache file"));
+    CHECK_THAT(g.err, Catch::Contains("ball.0002.ply is corrupt (its checksum does not match)"));
+    CHECK(e2e::readAll(mesh / "ball.0002.ply") == frame2);
 }
