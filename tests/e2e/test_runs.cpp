@@ -220,13 +220,25 @@ namespace {
 
 /// `render small.json --movie --out m` in `dir` with a stand-in ffmpeg (a shell script whose
 /// last argument is the movie's temporary) first on PATH.
-Run renderMovieWith(const fs::path& dir, const std::string& ffmpegScript) {
+/// With `alone`, PATH holds the stand-in's folder only (no ffprobe, whatever the machine has; the
+/// script uses shell builtins).
+Run renderMovieWith(const fs::path& dir, const std::string& ffmpegScript, bool alone = false) {
+    fs::create_directories(dir);
     writeScene(dir, 2);
     fs::create_directories(dir / "bin");
     const fs::path fake = dir / "bin" / "ffmpeg";
     std::ofstream(fake) << "#!/bin/sh\nfor last; do :; done\n" << ffmpegScript;
     fs::permissions(fake, fs::perms::owner_all);
-    return runDgvIn(dir, "render small.json --movie --out m", "PATH=" + quote(dir / "bin") + ":\"$PATH\"");
+    return runDgvIn(dir, "render small.json --movie --out m",
+                    "PATH=" + quote(dir / "bin") + (alone ? std::string() : ":\"$PATH\""));
+}
+
+/// A stand-in ffmpeg that makes the movie as a silent 4 KB stub, and answers the decode check
+/// (`-f framecrc -`) with `decoded` frame lines.
+std::string stubMovieScript(int decoded) {
+    std::string s = "case \"$*\" in *framecrc*)\n";
+    for (int i = 0; i < decoded; ++i) s += "  echo '0, " + std::to_string(i) + ", " + std::to_string(i) + ", 1, 100, 0x0'\n";
+    return s + "  exit 0;;\nesac\nprintf '%4096s' x > \"$last\"\nexit 0\n";
 }
 
 }  // namespace
@@ -244,6 +256,37 @@ TEST_CASE("e2e: --movie does not trust ffmpeg's exit status: a broken movie is n
     CHECK_THAT(r.err, Catch::Contains("No space left on device"));
     CHECK_THAT(r.err, Catch::Contains("the frames are complete"));
     CHECK(namesIn(dir.path() / "m") == frameNames(1, 2));  // no movie, no temporary, no log
+}
+
+TEST_CASE("e2e: --movie on a full disk names the full disk, though a log beside the movie would be lost",
+          "[e2e][faults]") {
+    // On a full disk ffmpeg's messages written to a file in the output folder are lost. The
+    // stand-in drops its message when its stderr is a file, writes a 4 KB stub and exits 0.
+    test::TempDir dir("e2e_movie_full");
+    const Run r = renderMovieWith(dir.path(),
+                                  "printf '%4096s' x > \"$last\"\n"
+                                  "[ -f /proc/$$/fd/2 ] || echo \"Error writing trailer of $last: No space left on "
+                                  "device\" >&2\nexit 0\n",
+                                  true);
+    INFO("stderr: " << r.err);
+    CHECK(r.exitCode == 1);
+    CHECK_THAT(r.err, Catch::Contains("(the disk is full: No space left on device); the frames are complete"));
+    CHECK(namesIn(dir.path() / "m") == frameNames(1, 2));  // no movie, no temporary, no log
+}
+
+TEST_CASE("e2e: --movie without ffprobe checks the movie by decoding it with ffmpeg", "[e2e][faults]") {
+    test::TempDir dir("e2e_movie_decode");
+    // A silent ffmpeg that leaves a movie of one frame of two: refused.
+    const Run bad = renderMovieWith(dir.path() / "bad", stubMovieScript(1), true);
+    INFO("stderr: " << bad.err);
+    CHECK(bad.exitCode == 1);
+    CHECK_THAT(bad.err, Catch::Contains("(the movie decodes to 1 frames of 2); the frames are complete"));
+    CHECK(namesIn(dir.path() / "bad" / "m") == frameNames(1, 2));
+    // One that decodes to both frames: kept.
+    const Run good = renderMovieWith(dir.path() / "good", stubMovieScript(2), true);
+    INFO("stderr: " << good.err);
+    CHECK(good.exitCode == 0);
+    CHECK(fs::file_size(dir.path() / "good" / "m" / "small.mp4") == 4096);
 }
 
 TEST_CASE("e2e: SIGTERM while ffmpeg makes the movie ends the run as interrupted and keeps no movie", "[e2e][faults]") {
