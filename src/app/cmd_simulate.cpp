@@ -41,8 +41,8 @@ int runSimulate(const SimulateOptions& options) {
     removeStaleOutputTemporaries(scene.output.dir);
     logInfo("simulating frames " + std::to_string(scene.frameStart) + "-" + std::to_string(last) + " of '" +
             scene.name + "' (" +
-            (scene.maxSubsteps > scene.substeps
-                 ? std::to_string(scene.substeps) + "-" + std::to_string(scene.maxSubsteps) +
+            (dynamics.maxSubsteps() > scene.substeps
+                 ? std::to_string(scene.substeps) + "-" + std::to_string(dynamics.maxSubsteps()) +
                        " substeps per frame, adaptive"
                  : std::to_string(scene.substeps) + " substeps per frame") +
             ") into " + scene.output.dir + (vdb ? " with the VDB cache" : ""));

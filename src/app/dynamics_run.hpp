@@ -49,6 +49,8 @@ public:
     /// Object i's surface at rest on that lattice (its triangles change when goo is remapped).
     const TriangleMesh& surfaceMesh(std::size_t i) const;
     bool active() const { return mSim->active(); }
+    /// The most substeps a frame takes (Simulation::maxSubsteps).
+    int maxSubsteps() const { return mSim->maxSubsteps(); }
     /// VDB frames before `frame` are simulated but not written (--frames A-B).
     void setFirstWrittenFrame(int frame) { mFirstWritten = frame; }
     /// A farm render task (app/cmd_farm.cpp): the state checkpoints are read, never written, and

@@ -49,6 +49,37 @@ extern "C" void onSignal(int) {
     alarm(kCancelGraceSeconds);
 }
 
+/// SIGINT, SIGTERM and SIGHUP stop a run (onSignal); a closed pipe on stdout or stderr (`dgv
+/// render x.json 2>&1 | head -1`) must not kill it: its writes then fail with EPIPE, and the
+/// frames go on being written.
+/// A parent that blocked these signals (the mask survives exec) would hold them pending for the
+/// whole run: they are unblocked here, so one sent before dgv's own code ran is taken now.
+void installSignalHandlers(int, char**, char**) {
+    std::signal(SIGINT, onSignal);
+    std::signal(SIGTERM, onSignal);
+    std::signal(SIGHUP, onSignal);  // a farm's or a closed terminal's hang-up stops like SIGTERM
+    std::signal(SIGALRM, onAlarm);
+    std::signal(SIGPIPE, SIG_IGN);
+    sigset_t stops;
+    sigemptyset(&stops);
+    for (int s : {SIGINT, SIGTERM, SIGHUP, SIGALRM}) sigaddset(&stops, s);
+    sigprocmask(SIG_UNBLOCK, &stops, nullptr);
+}
+
+/// The handlers are installed from the executable's pre-initialisation array, which the dynamic
+/// loader runs before any shared library's constructor: the first of dgv's own code to run.
+/// What comes before it is the loader's relocation of the libraries (about 90 ms, mostly
+/// libLLVM, which libOSMesa pulls in; measured with perf), when a signal still has its default
+/// action; nothing is written then.
+__attribute__((section(".preinit_array"), used)) void (*const kInstallSignalHandlers)(int, char**, char**) =
+    installSignalHandlers;
+
+/// The line and exit code of a run stopped by a signal.
+int interrupted() {
+    std::fprintf(stderr, "dgv: interrupted; the files already written are complete\n");
+    return dgv::kExitInterrupted;
+}
+
 /// A finite number > 0 (CLI::PositiveNumber prints DBL_MAX as its upper bound on failure).
 const CLI::Validator kPositive(
     [](std::string& text) -> std::string {
@@ -344,15 +375,10 @@ int main(int argc, char** argv) {
     if (threads > 0)
         threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                             static_cast<std::size_t>(threads));
-    std::signal(SIGINT, onSignal);
-    std::signal(SIGTERM, onSignal);
-    std::signal(SIGHUP, onSignal);  // a farm's or a closed terminal's hang-up stops like SIGTERM
-    std::signal(SIGALRM, onAlarm);
-    // A closed pipe on stdout or stderr (`dgv render x.json 2>&1 | head -1`) must not kill the
-    // run: its writes then fail with EPIPE, and the frames go on being written.
-    std::signal(SIGPIPE, SIG_IGN);
-
-    try {
+    // A signal at any time, even before the command starts or as it returns, ends the run as
+    // interrupted (the handlers are in place from the start: installSignalHandlers).
+    if (cancelRequested()) return interrupted();
+    auto command = [&]() -> int {
         if (*cRender) return app::runRender(render);
         if (*cInfo) return app::runInfo(info);
         if (*cDiff) return app::runImgdiff(diff);
@@ -366,16 +392,17 @@ int main(int argc, char** argv) {
         app::RenderOptions def;
         def.scene = app::defaultScenePath();
         return app::runRender(def);
+    };
+    try {
+        const int rc = command();
+        return cancelRequested() && rc != kExitInterrupted ? interrupted() : rc;
     } catch (const InputError& e) {
         std::fprintf(stderr, "dgv: error: %s\n", oneLine(e.what()).c_str());
         return kExitBadInput;
     } catch (const RuntimeError& e) {
         // SIGINT/SIGTERM removes the temporary being written, which fails that write: an
         // interruption, not an I/O error.
-        if (cancelRequested()) {
-            std::fprintf(stderr, "dgv: interrupted; the files already written are complete\n");
-            return kExitInterrupted;
-        }
+        if (cancelRequested()) return interrupted();
         std::fprintf(stderr, "dgv: error: %s\n", oneLine(e.what()).c_str());
         return kExitFailure;
     } catch (const std::bad_alloc&) {

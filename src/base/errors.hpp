@@ -33,6 +33,28 @@ private:
     std::string mInput, mWhere, mWhat;
 };
 
+/// A library's message (OpenVDB, assimp, nlohmann-json) as one short readable line: its first
+/// non-blank line, other control bytes as '?', cut to `limit` characters with "...". OpenVDB
+/// echoes what it read from a damaged file: a truncated level set's message was 22,000
+/// characters of one line.
+inline std::string libraryMessage(const std::string& what, std::size_t limit = 200) {
+    std::string line;
+    for (char c : what) {
+        if (c == '\n' || c == '\r') {
+            if (line.find_first_not_of(' ') != std::string::npos) break;
+            line.clear();
+            continue;
+        }
+        const unsigned char u = static_cast<unsigned char>(c);
+        line += u < 0x20 || u == 0x7f ? '?' : c;
+        if (line.size() > limit) {
+            line.resize(limit);
+            return line + "...";
+        }
+    }
+    return line;
+}
+
 /// A failure while running on valid input (I/O, GL, resources).
 class RuntimeError : public std::runtime_error {
 public:

@@ -442,7 +442,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
         if (scene) scene = importer.ApplyPostProcessing(aiProcess_RemoveComponent);
         if (scene) scene = importer.ApplyPostProcessing(flags);
     } catch (const std::exception& e) {
-        throw InputError(p, "", std::string("assimp could not read it: ") + e.what());
+        throw InputError(p, "", "assimp could not read it: " + libraryMessage(e.what()));
     } catch (...) {
         throw InputError(p, "", "assimp could not read it: unknown error");
     }
@@ -455,7 +455,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
             throw InputError(p, "", "no triangles (the file holds only points and lines)");
         if (why.find("mNumMeshes is 0") != std::string::npos)
             throw InputError(p, "", "no triangles (the file holds no meshes)");
-        throw InputError(p, "", "assimp could not read it: " + (why.empty() ? "unknown error" : why));
+        throw InputError(p, "", "assimp could not read it: " + (why.empty() ? "unknown error" : libraryMessage(why)));
     }
 
     // The file's unit scale comes before its node transforms (and so before a scene's transform).

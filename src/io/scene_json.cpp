@@ -230,6 +230,17 @@ private:
     std::set<std::string> mKnown;
 };
 
+/// The eye far beyond what it looks at overflows the view direction (a NaN that reads as "up is
+/// parallel to the view"): refused with its own message. 1e12 m is past any shot's scale.
+void checkCameraSpan(ObjectReader& c, const Vec3& eye, const Vec3& target) {
+    const Real span = (eye - target).lpNorm<Eigen::Infinity>();
+    if (!(span <= 1e12)) {
+        char line[160];
+        std::snprintf(line, sizeof line, "lies %.3g m from the target; keep the camera within 1e+12 m of it", span);
+        c.fail("eye", line);
+    }
+}
+
 std::string lineColumn(const std::string& text, std::size_t byte) {
     std::size_t line = 1, col = 1;
     for (std::size_t i = 0; i < byte && i < text.size(); ++i) {
@@ -339,13 +350,13 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         if (p != std::string::npos) msg = msg.substr(p);
         if (text.find_first_not_of(" \t\r\n") == std::string::npos) msg = "the file is empty";
         throw InputError(file, "",
-                         "malformed JSON: " + msg + " (" + lineColumn(text, e.byte > 0 ? e.byte - 1 : 0) + ")");
+                         "malformed JSON: " + libraryMessage(msg) + " (" + lineColumn(text, e.byte > 0 ? e.byte - 1 : 0) + ")");
     } catch (const Json::exception& e) {
         // e.g. out_of_range.406, a number too large for a double ("1E1111111"; found by fuzz_scene)
         std::string msg = e.what();
         const auto p = msg.find("] ");
         if (p != std::string::npos) msg = msg.substr(p + 2);
-        throw InputError(file, "", "malformed JSON: " + msg);
+        throw InputError(file, "", "malformed JSON: " + libraryMessage(msg));
     }
 
     const fs::path sceneDir = fs::absolute(path).parent_path();
@@ -367,6 +378,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     });
     s.substeps = r.integer("substeps", 1, 1, 1000);
     s.maxSubsteps = r.integer("max_substeps", std::max(16, s.substeps), s.substeps, 1000);
+    s.maxSubstepsGiven = r.has("max_substeps");
     s.cfl = r.number("cfl", 1, 0, 100, true);
     r.object("collision", [&](ObjectReader& c) {
         s.collision.detect = c.choiceOf("detect", CollisionDesc::Detect::Sdf,
@@ -690,6 +702,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 key.target = k.vec3("target", key.target);
                 key.fovDegrees = k.number("fov", d.fovDegrees, 1, 170);
                 if (i > 0 && key.frame <= d.keys.back().frame) k.fail("frame", "key frames must increase");
+                checkCameraSpan(k, key.eye, key.target);
                 if ((key.eye - key.target).norm() < 1e-9) k.fail("target", "must differ from eye");
                 if ((key.eye - key.target).normalized().cross(d.up).norm() < 1e-6)
                     k.fail("eye", "the view direction must not be parallel to up");
@@ -701,6 +714,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
             d.eye = c.vec3("eye", d.eye);
             d.target = c.vec3("target", d.target);
             d.up = c.direction("up", d.up);
+            checkCameraSpan(c, d.eye, d.target);
             if ((d.eye - d.target).norm() < 1e-9) c.fail("target", "must differ from eye");
             if ((d.eye - d.target).normalized().cross(d.up).norm() < 1e-6)
                 c.fail("up", "must not be parallel to the view direction");

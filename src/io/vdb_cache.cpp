@@ -622,9 +622,9 @@ void verifyWritten(const fs::path& file, const std::vector<std::string>& names) 
         if (got != want) throw RuntimeError("the written file lists other grids than were written");
         if (!meta || !(*meta)["dgv_frame"]) throw RuntimeError("the written file lost its metadata");
     } catch (const RuntimeError& e) {
-        throw RuntimeError(std::string("the written file does not read back (disk full?): ") + e.what());
+        throw RuntimeError("the written file does not read back (disk full?): " + libraryMessage(e.what()));
     } catch (const std::exception& e) {
-        throw RuntimeError(std::string("the written file does not read back (disk full?): ") + e.what());
+        throw RuntimeError("the written file does not read back (disk full?): " + libraryMessage(e.what()));
     }
 }
 

@@ -107,7 +107,7 @@ SdfGrid readVdbLevelSet(const std::filesystem::path& path, const std::string& gr
     } catch (const InputError&) {
         throw;
     } catch (const std::exception& e) {
-        bad(std::string("cannot read it as OpenVDB: ") + e.what());
+        bad("cannot read it as OpenVDB: " + libraryMessage(e.what()));
     }
 
     return denseLevelSet(*grid, maxSamples, bad);
@@ -154,7 +154,7 @@ std::string vdbFrameProblem(const std::filesystem::path& path, int frame, const 
         const std::string bytes = readInputFile(path, "VDB frame", std::uintmax_t(1) << 40);
         if (std::string why = checksumProblem(bytes.data(), bytes.size()); !why.empty()) return why;
     } catch (const std::exception& e) {
-        return std::string("does not read: ") + e.what();
+        return "does not read: " + libraryMessage(e.what());
     }
     try {
         // OpenVDB's default reader (delayed loading, what Houdini and Blender use), every leaf
@@ -178,7 +178,7 @@ std::string vdbFrameProblem(const std::filesystem::path& path, int frame, const 
         for (const openvdb::GridBase::Ptr& g : *grids)
             if (!g) return "has an unreadable grid";
     } catch (const std::exception& e) {
-        return std::string("does not read: ") + e.what();
+        return "does not read: " + libraryMessage(e.what());
     }
     return {};
 }

@@ -279,6 +279,7 @@ struct SceneDesc {
     /// (nor a fifth of that from rest under the force), that δt √stiffness ≤ 1 and that the
     /// twist stays within half its limiter. maxSubsteps = substeps: a fixed count.
     int maxSubsteps = 16;
+    bool maxSubstepsGiven = false;  ///< the scene sets max_substeps: a stiff body never raises it (Simulation)
     Real cfl = 1;
     std::vector<ObjectDesc> objects;
     std::vector<ForceTerm>

@@ -81,6 +81,7 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
     }
     mActive = anyMotion;
     mFrame = scene.frameStart;
+    mMostSubsteps = std::max(scene.substeps, scene.maxSubsteps);
     if (!mActive && !always) return;
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         const ObjectDesc& o = scene.objects[i];
@@ -153,6 +154,7 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
         }
         mBodies[i]->setRigidVelocity(o.velocity, o.spinDegrees * (M_PI / 180.0));
     }
+    fitSubsteps();
     // GLN contact detection (docs/gln.md): a network per body, R per collider and step.
     mNetworks.resize(mBodies.size());
     mObjectContact = scene.collision.objects &&
@@ -175,6 +177,70 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
 }
 
 Simulation::~Simulation() = default;
+
+void Simulation::fitSubsteps() {
+    // One of frameSubsteps' bounds is set by the scene alone, before anything moves: a chain-step
+    // body's shape memory is a leapfrog oscillator, unstable past δt √k = 2 and kept at δt √k ≤ 1,
+    // so it needs √k / fps substeps (the one solve is implicit in it). The jelly preset's k grows
+    // as 1/size: a 0.1 mm ball wobbles at 352 Hz and needs 92 at 24 fps, where the default most
+    // is 16 (32 on a retry): it faulted at frame 2. Measured on small balls and low frame rates,
+    // every scene that needed more than 0.95 of the retry's count faulted, every one below ran;
+    // such a scene gets the substeps it needs when it does not set max_substeps. One that sets
+    // it, or a count past what dgv takes, is refused where no substep count it allows can be
+    // stable (δt √k > 2 at the most a frame may take). (frameSubsteps' other bounds depend on
+    // the motion: a goo ball of a micrometre, whose force bound asks for 700, runs at 16.)
+    constexpr Real kRaiseAt = 0.95, kUnstable = 2;
+    constexpr int kMostSubstepsAccepted = 1000;  // io/scene_json's range for max_substeps
+    Real need = 0, stiffness = 0;
+    std::size_t worst = 0;
+    for (std::size_t i = 0; i < mBodies.size(); ++i) {
+        const DeformableBody* b = mBodies[i].get();
+        if (!b || b->settings().solver == StepSolver::One) continue;
+        const Real k = b->settings().shapeStiffness, n = std::sqrt(k) / mScene.fps;
+        if (n > need) {
+            need = n;
+            worst = i;
+            stiffness = k;
+        }
+    }
+    const int most = std::max(mScene.substeps, mScene.maxSubsteps);
+    const bool adaptive = most > mScene.substeps;
+    auto ceilingOf = [&](int m) { return adaptive ? kRetrySubstepFactor * m : m; };  // the retry's count
+    mMostSubsteps = most;
+    if (!(need > kRaiseAt * ceilingOf(most))) return;
+    const int needed = static_cast<int>(std::ceil(std::min(need, Real(1e9))));
+    char count[32];
+    if (need <= 1e6)
+        std::snprintf(count, sizeof count, "%d", needed);
+    else
+        std::snprintf(count, sizeof count, "%.3g", need);
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "\"%s\" has a stiffness of %.3g/s^2 (a wobble of %.3g Hz), which needs %s substeps per frame at "
+                  "%g fps",
+                  mScene.objects[worst].name.c_str(), stiffness, std::sqrt(stiffness) / 6.283185307179586, count,
+                  mScene.fps);
+    if (mScene.maxSubstepsGiven) {
+        if (need > kUnstable * ceilingOf(most))
+            throw InputError(mScene.path, "max_substeps",
+                             std::string(line) + ", more than max_substeps " + std::to_string(mScene.maxSubsteps) +
+                                 " allows: set it to " + std::to_string(needed) + " or more");
+        return;  // past the comfortable bound but not past stability: as the scene asks
+    }
+    const int raised = std::max(most, std::min(needed, kMostSubstepsAccepted));
+    if (need > kUnstable * ceilingOf(raised)) {
+        const Real fpsNeeded = 1.001 * std::sqrt(stiffness) / kMostSubstepsAccepted;  // rounded up when printed
+        char fix[240];
+        std::snprintf(fix, sizeof fix,
+                      ", more than the %d dgv takes: raise frames.fps to %.3g or more, or make it larger or softer "
+                      "(material.sag, wobble_hz or stiffness)",
+                      kMostSubstepsAccepted, fpsNeeded);
+        throw InputError(mScene.path, "objects[" + std::to_string(worst) + "].material", std::string(line) + fix);
+    }
+    mMostSubsteps = raised;
+    logInfo(std::string(line) + ": up to " + std::to_string(mMostSubsteps) +
+            " substeps per frame are taken (max_substeps sets the most)");
+}
 
 void Simulation::attachNetwork(std::size_t i) {
     if (!mGlnDetect || !mBodies[i]) return;
@@ -607,7 +673,7 @@ int Simulation::frameSubsteps(int frame) const {
     //    ball in a vortex ran at 2.00 and faulted at 2.13);
     //  - the twist's change per substep stays within half its limiter at the last step's rate.
     // Within [substeps, max_substeps]; a function of the state, so a resumed run takes the same.
-    const int lo = mScene.substeps, hi = std::max(lo, mScene.maxSubsteps);
+    const int lo = mScene.substeps, hi = std::max(lo, mMostSubsteps);
     if (hi == lo) return lo;
     const Real frameTime = 1 / mScene.fps;
     Real need = lo;
@@ -707,7 +773,7 @@ FrameStats Simulation::advanceTo(int frame) {
     int sub = frameSubsteps(frame);
     const int firstSub = sub;
     // A fixed count (max_substeps = substeps) stays fixed: such a frame fails without a retry.
-    const int most = std::max(mScene.substeps, mScene.maxSubsteps);
+    const int most = std::max(mScene.substeps, mMostSubsteps);
     const int cap = most > mScene.substeps ? std::max(sub, kRetrySubstepFactor * most) : sub;
     std::vector<ObjectState> start = saveState();
     std::vector<unsigned char> remappedForRetry(mBodies.size(), 0);

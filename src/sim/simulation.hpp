@@ -82,6 +82,9 @@ public:
     /// Whether anything moves: some object is deformable and the scene has forces or an
     /// initial velocity.
     bool active() const { return mActive; }
+    /// The most substeps a frame takes: the scene's max_substeps, raised to what the stiffest
+    /// body needs when the scene does not set it (fitSubsteps).
+    int maxSubsteps() const { return mMostSubsteps; }
     /// Simulates frame `frame` (must be the frame after the last one; the first call's frame
     /// must be frames.start + 1) at frameSubsteps() substeps. A frame that faults or whose
     /// surface fails the check (setSurface) is simulated again from the frame's start at twice
@@ -158,6 +161,10 @@ public:
     static constexpr Real kStartOverlapVoxels = 1;
 
 private:
+    /// Sets mMostSubsteps: the scene's, raised to what the stiffest chain-step body's shape
+    /// memory needs when the scene leaves max_substeps unset; InputError naming the key to
+    /// change when the most accepted (or the scene's max_substeps) is too few.
+    void fitSubsteps();
     /// Frame `frame` at `sub` substeps.
     FrameStats simulateFrame(int frame, int sub);
     /// The substeps of the next frame: adaptive between substeps and max_substeps (simulation.cpp).
@@ -234,6 +241,7 @@ private:
     LevelSetMesher mLevelSetMesher;
     bool mObjectContact = false;  ///< collision.objects and at least two bodies
     const SceneDesc& mScene;
+    int mMostSubsteps = 1;  ///< the most substeps a frame takes (maxSubsteps())
     ForceField mField;
     std::vector<Collider> mColliders;
     std::vector<std::unique_ptr<DeformableBody>> mBodies;  ///< per object (null: static)

@@ -452,12 +452,19 @@ TEST_CASE("cli: transform.units reads a mesh file in another unit, and a mesh of
     CHECK(bad.exitCode == 2);
     CHECK_THAT(bad.output, Catch::Contains("objects[0].transform.units: expected m, cm, mm, km, in, ft or metres per "
                                            "unit (a number > 0), got \"furlong\""));
-    // A primitive is in metres: warned of only past what the renderer's floats resolve.
+    // A primitive is in metres: warned of past what the renderer's floats resolve (1e6 m), refused
+    // past what dgv simulates and draws (under 1e-6 m it rendered an empty image).
+    std::ofstream(dir.path() / "huge.json") << R"({"frames": {"start": 1, "end": 1}, "objects": [{"name": "moon",
+      "primitive": {"type": "sphere", "radius": 1e7}, "resolution": 8}]})";
+    const auto moon = test::runDgv("simulate " + q(dir.path() / "huge.json") + " --out " + q(dir.path() / "o5"));
+    CHECK_THAT(moon.output, Catch::Contains("object 'moon' (a primitive) is 2e+07 m across: the renderer's floats "
+                                            "resolve 1e-6 to 1e6 m objects"));
     std::ofstream(dir.path() / "tiny.json") << R"({"frames": {"start": 1, "end": 1}, "objects": [{"name": "dot",
       "primitive": {"type": "sphere", "radius": 1e-8}, "resolution": 8}]})";
     const auto dot = test::runDgv("simulate " + q(dir.path() / "tiny.json") + " --out " + q(dir.path() / "o4"));
-    CHECK_THAT(dot.output, Catch::Contains("object 'dot' (a primitive) is 2e-08 m across: the renderer's floats "
-                                           "resolve 1e-6 to 1e6 m objects"));
+    CHECK(dot.exitCode == 2);
+    CHECK_THAT(dot.output, Catch::Contains("objects[0].primitive: \"dot\" is 2e-08 m across; dgv simulates and draws "
+                                           "objects from 1e-06 to 1e+09 m across"));
     std::ofstream(dir.path() / "p.json") << R"({"frames": {"start": 1, "end": 1}, "objects": [{"primitive":
       {"type": "sphere"}, "transform": {"units": "cm"}}]})";
     const auto onPrimitive = test::runDgv("simulate " + q(dir.path() / "p.json") + " --out " + q(dir.path() / "o3"));

@@ -1,1 +1,2 @@
 list(APPEND DGV_TEST_SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_parallel.cpp ${CMAKE_CURRENT_LIST_DIR}/test_image.cpp)
+list(APPEND DGV_TEST_SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_errors.cpp)

@@ -180,6 +180,69 @@ TEST_CASE("e2e: scene values of the wrong type or out of range exit 2 with one l
                });
 }
 
+TEST_CASE("e2e: absurd sizes, positions and frame rates are refused up front", "[e2e][badinput]") {
+    // Each of these failed late before: a fault at frame 2 after frame 1 was written (exit 1,
+    // which a farm retries), an empty image with exit 0, or a message blaming another cause.
+    const std::string drop = R"(, "forces": [{"type": "gravity"}])";
+    checkCases("e2e_bad_extremes",
+               {
+                   {"radius 1e300 (a fault at frame 2)",
+                    {{"s.json", R"({"frames": {"start": 1, "end": 2}, "objects": [{"primitive": {"type": "sphere",
+                       "radius": 1e300}}], "forces": [{"type": "gravity"}], "camera": {"type": "turntable"}})"}},
+                    "simulate s.json",
+                    {"s.json", "objects[0].primitive", "\"object0\" is 2e+300 m across", "from 1e-06 to 1e+09 m"}},
+                   {"an object of 1e-7 m (an empty image)",
+                    {{"s.json", sphereScene("", "").replace(sphereScene("", "").find("0.5"), 3, "5e-8")}},
+                    "render s.json",
+                    {"s.json", "objects[0].primitive", "is 1e-07 m across", "give it a size in that range"}},
+                   {"a mesh scaled past 1e9 m",
+                    {{"s.json", sphereScene("", R"(, "transform": {"scale": 1e10})")}},
+                    "render s.json",
+                    {"s.json", "objects[0].transform.scale", "is 1e+10 m across"}},
+                   {"translate 1e300 (\"the mesh is flat\" after a warning)",
+                    {{"s.json", sphereScene("", R"(, "transform": {"translate": [1e300, 0, 0]})")}},
+                    "render s.json",
+                    {"s.json", "objects[0].transform.translate", "would lie 1e+300 m from the origin",
+                     "move the scene nearer the origin"}},
+                   {"translate -1e12 (wrong volumes, no fault)",
+                    {{"s.json", sphereScene(drop, R"(, "transform": {"translate": [0, -1e12, 0]})")}},
+                    "simulate s.json",
+                    {"s.json", "objects[0].transform.translate", "1e+12 times its size"}},
+                   {"camera eye 1e300 (\"up must not be parallel\")",
+                    {{"s.json", sphereScene(R"(, "camera": {"type": "look_at", "eye": [1e300, 0, 0]})")}},
+                    "render s.json",
+                    {"s.json", "camera.eye", "lies 1e+300 m from the target"}},
+                   {"fps 1e-300 (lattice_folded, |Γ + δΓ| = -nan)",
+                    {{"s.json", sphereScene(R"(, "frames": {"start": 1, "end": 3, "fps": 1e-300})" + drop)}},
+                    "-q simulate s.json",
+                    {"s.json", "objects[0].material", "needs 3.13e+301 substeps per frame",
+                     "more than the 1000 dgv takes", "raise frames.fps to 0.0314 or more"}},
+                   {"a small stiff jelly with max_substeps too low for it",
+                    {{"s.json", sphereScene(R"(, "max_substeps": 10)" + drop,
+                                            R"(, "material": {"stiffness": 4e6}, "resolution": 8)")}},
+                    "-q simulate s.json",
+                    {"s.json", "max_substeps", "which needs 84 substeps per frame at 24 fps",
+                     "more than max_substeps 10 allows: set it to 84 or more"}},
+               });
+}
+
+TEST_CASE("e2e: a small jelly ball whose wobble needs more substeps than the default gets them", "[e2e]") {
+    // The jelly preset's stiffness grows as 1/size: a ball of 0.1 mm radius wobbles at 352 Hz and
+    // needs 93 substeps at 24 fps. With the default most of 16 (32 on a retry) it faulted at
+    // frame 2.
+    test::TempDir dir("e2e_small_jelly");
+    std::ofstream(dir.path() / "s.json") << R"({"frames": {"start": 1, "end": 4},
+      "objects": [{"primitive": {"type": "sphere", "radius": 1e-4}, "resolution": 8,
+                   "transform": {"translate": [0, 1.6e-4, 0]}}],
+      "forces": [{"type": "gravity"}], "colliders": [{"type": "ground", "height": 0}]})";
+    const Run r = runDgvIn(dir.path(), "--progress log simulate s.json --out o");
+    INFO(r.err);
+    CHECK(r.exitCode == 0);
+    CHECK_THAT(r.err, Catch::Contains("which needs 93 substeps per frame at 24 fps: up to 93 substeps per frame are "
+                                      "taken"));
+    CHECK_THAT(r.err, Catch::Contains("simulate 4/4 frames"));
+}
+
 TEST_CASE("e2e: objects that start inside each other exit 2 naming both, and write nothing", "[e2e][badinput][slow]") {
     // docs/math.md, "Overlapping starts": two balls of radius 0.3 whose centres are 0.4 apart
     // overlap by 0.2 (less the contact margin of a voxel); render and simulate refuse them.

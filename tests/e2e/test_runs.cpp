@@ -6,9 +6,13 @@
 
 #include <catch2/catch.hpp>
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -366,6 +370,39 @@ TEST_CASE("e2e: a second signal ends a run at once, with one line and exit 130",
     CHECK_THAT(err, Catch::Contains("dgv: interrupted"));
     // It stopped inside the benchmark: the figures of the full frame were never printed.
     CHECK_THAT(readAll(dir.path() / "bench.out"), !Catch::Contains("vdb.frame_seconds"));
+}
+
+TEST_CASE("e2e: a signal that reaches dgv before its own code runs ends the run as interrupted", "[e2e][faults]") {
+    // A SIGTERM sent while dgv is still being loaded, held pending by a blocked mask (which exec
+    // keeps): its handlers, installed before any library's constructor, take it, and the run
+    // ends with one line and exit 130 instead of running to the end with the signal ignored.
+    test::TempDir dir("e2e_signal_early");
+    writeScene(dir.path(), 2);
+    // Everything the child needs is made before fork (only async-signal-safe calls after it).
+    const std::string log = (dir.path() / "early.err").string(), out = (dir.path() / "o").string(),
+                      scene = (dir.path() / "small.json").string();
+    const pid_t pid = fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+        sigset_t term;
+        sigemptyset(&term);
+        sigaddset(&term, SIGTERM);
+        sigprocmask(SIG_BLOCK, &term, nullptr);
+        kill(getpid(), SIGTERM);  // pending
+        const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd < 0 || dup2(fd, STDERR_FILENO) < 0) _exit(99);
+        execl(DGV_EXE, DGV_EXE, "render", scene.c_str(), "--out", out.c_str(), static_cast<char*>(nullptr));
+        _exit(98);
+    }
+    int status = 0;
+    REQUIRE(waitpid(pid, &status, 0) == pid);
+    const std::string err = readAll(log);
+    INFO("stderr: " << err);
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 130);
+    CHECK(lineCount(err) == 1);
+    CHECK_THAT(err, Catch::Contains("dgv: interrupted"));
+    CHECK(!fs::exists(dir.path() / "o" / frameName(2)));
 }
 
 // A farm's hang-up and a closed pipe: SIGHUP stops a run as SIGTERM does (one line, exit 130,

@@ -306,12 +306,16 @@ TEST_CASE("e2e: a bad level-set collider exits 2 with one line and writes nothin
         {R"({"type": "levelset", "file": "absent.vdb"})", {"absent.vdb", "cannot open"}},
         {R"({"type": "levelset", "file": "fog.vdb"})", {"fog.vdb", "no level-set grid"}},
         {R"({"type": "levelset", "file": "fog.vdb", "grid": "density"})", {"fog.vdb", "not a level set"}},
+        // The shipped cube cut after 400 bytes: OpenVDB's message is cut to one short line.
+        {R"({"type": "levelset", "file": "cut.vdb"})", {"cut.vdb", "cannot read it as OpenVDB: RuntimeError"}},
     };
+    const std::string cube = e2e::readAll(test::sourcePath("scenes") / "levelsets" / "cube.vdb");
     int index = 0;
     for (const auto& [collider, expect] : cases) {
         const fs::path d = root.path() / ("case" + std::to_string(index++));
         fs::create_directories(d);
         writeGrids(d / "fog.vdb", {fog});
+        std::ofstream(d / "cut.vdb", std::ios::binary) << cube.substr(0, 400);
         std::ofstream(d / "s.json") << R"({"frames": {"start": 1, "end": 2}, )" << kObject
                                     << R"(, "forces": [{"type": "gravity"}], "colliders": [)" << collider
                                     << R"(], "render": {"width": 32, "height": 32, "supersample": 1}})";
@@ -321,6 +325,7 @@ TEST_CASE("e2e: a bad level-set collider exits 2 with one line and writes nothin
             INFO(collider << ": dgv " << cmd << " exit " << r.exitCode << ", stderr: " << r.err);
             CHECK(r.exitCode == 2);
             CHECK(e2e::lineCount(r.err) == 1);
+            CHECK(r.err.size() < 400);
             CHECK(r.out.empty());
             CHECK_THAT(r.err, Catch::Contains("s.json") && Catch::Contains("colliders[0].file"));
             for (const std::string& e : expect) CHECK_THAT(r.err, Catch::Contains(e));
