@@ -106,8 +106,15 @@ public:
     int integer(const std::string& key, int def, int lo, int hi) {
         const Json* v = get(key);
         if (!v) return def;
-        if (!v->is_number_integer()) fail(key, "expected an integer, got " + describe(*v));
-        long long x = v->get<long long>();
+        // A whole number written as a float (4.0, 1e5: what a script's float gives) is that
+        // integer; range-checked as a double first, so 1e300 is out of range, not a cast's UB.
+        const bool whole = v->is_number_float() && std::isfinite(v->get<double>()) &&
+                           v->get<double>() == std::floor(v->get<double>());
+        if (!v->is_number_integer() && !whole) fail(key, "expected an integer, got " + describe(*v));
+        if (whole && !(v->get<double>() >= lo && v->get<double>() <= hi))
+            fail(key, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+                          describe(*v));
+        const long long x = whole ? static_cast<long long>(v->get<double>()) : v->get<long long>();
         if (x < lo || x > hi)
             fail(key, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
                           describe(*v));

@@ -94,6 +94,15 @@ TEST_CASE("scene_json: defaults for a minimal scene", "[io][scene]") {
     CHECK(s.objects[0].voxel.resolution == 48);
     CHECK(s.camera.type == CameraType::Turntable);
     CHECK(s.output.dir == (fs::current_path() / "out" / "minimal").string());
+    CHECK(!s.maxSubstepsGiven);
+    // Whole numbers written as floats (what a script's float gives) are those integers.
+    const SceneDesc f = parseScene(
+        R"({"objects": [{"primitive": {"type": "sphere"}, "resolution": 24.0}], "substeps": 4.0, "max_substeps": 1e2})",
+        "f.json");
+    CHECK(f.substeps == 4);
+    CHECK(f.maxSubsteps == 100);
+    CHECK(f.maxSubstepsGiven);
+    CHECK(f.objects[0].voxel.resolution == 24);
 }
 
 TEST_CASE("scene_json: every bad input names the file, the JSON path and the problem", "[io][scene]") {
@@ -117,6 +126,11 @@ TEST_CASE("scene_json: every bad input names the file, the JSON path and the pro
          "objects[0].resolution: expected an integer, got 1.5"},
         {R"({"objects": [{"primitive": {"type": "sphere"}, "resolution": 100000}]})",
          "objects[0].resolution: expected an integer in [2, 2048], got 100000"},
+        // A whole number written as a float is range-checked as the integer it is.
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "substeps": 1e5})",
+         "substeps: expected an integer in [1, 1000], got 100000.0"},
+        {R"({"objects": [{"primitive": {"type": "sphere"}}], "substeps": 1e300})",
+         "substeps: expected an integer in [1, 1000], got 1e+300"},
         {R"({"objects": [{"primitive": {"type": "cone"}}]})",
          "objects[0].primitive.type: expected one of 'sphere', 'box', 'torus', 'capsule', got \"cone\""},
         {R"({"objects": [{"primitive": {"type": "sphere", "radius": "big"}}]})",
