@@ -6,7 +6,7 @@
 #   scripts/models.sh [--dgv PATH] [--jobs N] [--out DIR] [--timeout S] [--materials LIST]
 #                     [--resolution N] [--frames N] [--list] [PATTERN...]
 #
-#   --dgv PATH        the dgv binary (default: $DGV, else build/dgv)
+#   --dgv PATH        the dgv launcher, dgv-core beside it (default: $DGV, else build/dgv)
 #   --jobs N          runs at once (default 1; `dgv info` and each simulation use one thread)
 #   --out DIR         output folder (default out/models): DIR/scenes/<material>_<model>.json,
 #                     DIR/imports.tsv (what import and voxelisation made of every file),

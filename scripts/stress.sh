@@ -7,7 +7,7 @@
 #   --big        also run the big scenes of scenes/stress/big/ (137k points; minutes each)
 #   --scenes DIR the scenes of DIR/*.json instead (scripts/models.sh writes its scenes there)
 #   --solver S   every object's material.solver (dgv simulate --solver; default: each scene's own)
-#   --dgv PATH   the dgv binary (default: $DGV, else build/dgv)
+#   --dgv PATH   the dgv launcher, dgv-core beside it (default: $DGV, else build/dgv)
 #   --jobs N     scenes run at once (default 1); each run is `dgv --threads 1`
 #   --out DIR    output folder (default out/stress): DIR/<name>/stats.csv, DIR/logs/<name>.log,
 #                DIR/summary.tsv

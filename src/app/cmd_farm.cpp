@@ -194,11 +194,14 @@ std::string checkScript(const Shot& s, const std::string& dgv, const FarmOptions
     return t;
 }
 
-/// This executable's absolute path: what the scripts run (the same path on every node).
+/// The dgv launcher beside this executable (app/launcher.cpp), by its absolute path: what the
+/// scripts run (the same path on every node).
 std::string selfPath() {
     std::error_code ec;
     const fs::path p = fs::read_symlink("/proc/self/exe", ec);
-    return ec ? std::string("dgv") : p.string();
+    if (ec) return "dgv";
+    const fs::path launcher = p.parent_path() / "dgv";
+    return p.filename() == "dgv-core" && fs::exists(launcher, ec) ? launcher.string() : p.string();
 }
 
 /// A frame is done when its PNG decodes in full and says it is that frame.

@@ -68,9 +68,9 @@ void installSignalHandlers(int, char**, char**) {
 
 /// The handlers are installed from the executable's pre-initialisation array, which the dynamic
 /// loader runs before any shared library's constructor: the first of dgv's own code to run.
-/// What comes before it is the loader's relocation of the libraries (about 90 ms, mostly
-/// libLLVM, which libOSMesa pulls in; measured with perf), when a signal still has its default
-/// action; nothing is written then.
+/// Before it the loader relocates the libraries (about 90 ms, mostly libLLVM, which libOSMesa
+/// pulls in; measured with perf), when a signal would have its default action: the launcher
+/// (app/launcher.cpp, the `dgv` users run) holds the signals blocked across it.
 __attribute__((section(".preinit_array"), used)) void (*const kInstallSignalHandlers)(int, char**, char**) =
     installSignalHandlers;
 

@@ -372,37 +372,76 @@ TEST_CASE("e2e: a second signal ends a run at once, with one line and exit 130",
     CHECK_THAT(readAll(dir.path() / "bench.out"), !Catch::Contains("vdb.frame_seconds"));
 }
 
+namespace {
+
+/// Forks `dgv render <dir>/small.json --out <dir>/o` with stderr into <dir>/<name>.err; with
+/// `pendingTerm` the child first blocks SIGTERM and sends it to itself (pending across exec).
+/// Everything the child needs is made before fork (only async-signal-safe calls after it).
+pid_t spawnRender(const fs::path& dir, const std::string& name, bool pendingTerm) {
+    const std::string log = (dir / (name + ".err")).string(), out = (dir / "o").string(),
+                      scene = (dir / "small.json").string();
+    const pid_t pid = fork();
+    if (pid != 0) return pid;
+    if (pendingTerm) {
+        sigset_t term;
+        sigemptyset(&term);
+        sigaddset(&term, SIGTERM);
+        sigprocmask(SIG_BLOCK, &term, nullptr);
+        kill(getpid(), SIGTERM);
+    }
+    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd < 0 || dup2(fd, STDERR_FILENO) < 0) _exit(99);
+    execl(DGV_EXE, DGV_EXE, "render", scene.c_str(), "--out", out.c_str(), static_cast<char*>(nullptr));
+    _exit(98);
+}
+
+}  // namespace
+
 TEST_CASE("e2e: a signal that reaches dgv before its own code runs ends the run as interrupted", "[e2e][faults]") {
     // A SIGTERM sent while dgv is still being loaded, held pending by a blocked mask (which exec
     // keeps): its handlers, installed before any library's constructor, take it, and the run
     // ends with one line and exit 130 instead of running to the end with the signal ignored.
     test::TempDir dir("e2e_signal_early");
     writeScene(dir.path(), 2);
-    // Everything the child needs is made before fork (only async-signal-safe calls after it).
-    const std::string log = (dir.path() / "early.err").string(), out = (dir.path() / "o").string(),
-                      scene = (dir.path() / "small.json").string();
-    const pid_t pid = fork();
+    const pid_t pid = spawnRender(dir.path(), "early", true);
     REQUIRE(pid >= 0);
-    if (pid == 0) {
-        sigset_t term;
-        sigemptyset(&term);
-        sigaddset(&term, SIGTERM);
-        sigprocmask(SIG_BLOCK, &term, nullptr);
-        kill(getpid(), SIGTERM);  // pending
-        const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd < 0 || dup2(fd, STDERR_FILENO) < 0) _exit(99);
-        execl(DGV_EXE, DGV_EXE, "render", scene.c_str(), "--out", out.c_str(), static_cast<char*>(nullptr));
-        _exit(98);
-    }
     int status = 0;
     REQUIRE(waitpid(pid, &status, 0) == pid);
-    const std::string err = readAll(log);
+    const std::string err = readAll(dir.path() / "early.err");
     INFO("stderr: " << err);
     REQUIRE(WIFEXITED(status));
     CHECK(WEXITSTATUS(status) == 130);
     CHECK(lineCount(err) == 1);
     CHECK_THAT(err, Catch::Contains("dgv: interrupted"));
     CHECK(!fs::exists(dir.path() / "o" / frameName(2)));
+}
+
+TEST_CASE("e2e: SIGTERM while dgv-core is still being loaded ends the run as interrupted", "[e2e][faults]") {
+    // The launcher (dgv) execs dgv-core with the stop signals blocked; the loader then spends
+    // about 90 ms on dgv-core's libraries before any of its code runs. A SIGTERM sent as soon as
+    // the process is dgv-core lands in that time: it waits, blocked, for the handlers.
+    test::TempDir dir("e2e_signal_loading");
+    writeScene(dir.path(), 2);
+    const pid_t pid = spawnRender(dir.path(), "loading", false);
+    REQUIRE(pid >= 0);
+    const std::string exe = "/proc/" + std::to_string(pid) + "/exe";
+    bool core = false;
+    for (int i = 0; i < 50000 && !core; ++i) {  // at most ~5 s
+        char target[4096];
+        const ssize_t n = readlink(exe.c_str(), target, sizeof target - 1);
+        core = n > 0 && std::string(target, static_cast<std::size_t>(n)).find("dgv-core") != std::string::npos;
+        if (!core) usleep(100);
+    }
+    kill(pid, SIGTERM);
+    int status = 0;
+    REQUIRE(waitpid(pid, &status, 0) == pid);
+    const std::string err = readAll(dir.path() / "loading.err");
+    INFO("stderr: " << err);
+    CHECK(core);
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 130);
+    CHECK(lineCount(err) == 1);
+    CHECK_THAT(err, Catch::Contains("dgv: interrupted"));
 }
 
 // A farm's hang-up and a closed pipe: SIGHUP stops a run as SIGTERM does (one line, exit 130,
