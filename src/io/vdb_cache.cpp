@@ -374,7 +374,8 @@ int writeAll(int fd, const char* p, std::size_t n) {
 /// back every 8 MiB (sync_file_range), so the compression, the copy into the page cache and the
 /// device writes overlap and the fsync at the end has little left to wait for. Checks every
 /// write, which io::File::write does not (on a full disk it returns normally and leaves a
-/// truncated file), and fsyncs the file.
+/// truncated file), seals it (io/checksum.hpp: hashed as it streams out, or read back after
+/// OpenVDB's own writer) and fsyncs it.
 class CheckedArchive : public openvdb::io::Archive {
 public:
     /// Writes `grids` and then the `laterCount` grids `later()` returns, which it builds while the
@@ -389,7 +390,14 @@ public:
             if (fd < 0) throw RuntimeError("cannot open " + file.string() + " for writing: " + std::strerror(errno));
             int err = 0;
             try {
+                sum_ = Checksum64();
+                sealAt_ = -1;
                 end = writeStreamed(fd, grids, laterCount, later, meta);
+                if (sealAt_ < 0) throw std::logic_error("vdb_cache: the file metadata holds no seal placeholder");
+                const std::string digits = checksumDigits(sum_.finish());
+                if (::pwrite(fd, digits.data(), digits.size(), static_cast<off_t>(sealAt_)) !=
+                    static_cast<ssize_t>(digits.size()))
+                    throw RuntimeError(std::string("the write failed (disk full?): ") + std::strerror(errno));
             } catch (...) {
                 ::close(fd);
                 throw;
@@ -408,6 +416,7 @@ public:
             end = ok ? std::streamoff(os.tellp()) : -1;
             os.close();
             if (!ok || os.fail()) throw RuntimeError("the write failed (disk full?)");
+            sealFileChecksum(file);  // OpenVDB's own writer: read back and sealed in place
         }
         std::error_code ec;
         const std::uintmax_t size = fs::file_size(file, ec);
@@ -418,6 +427,8 @@ public:
     }
 
 private:
+    mutable Checksum64 sum_;           // the streamed file's checksum so far
+    mutable std::int64_t sealAt_ = -1;  // where its seal's digits are, once written
     // Archive::write and Archive::writeGrid of OpenVDB 10, for grids with unique, non-empty names
     // and trees of their own (no instancing). OpenVDB's own functions write the headers,
     // metadata, transforms and topologies into memory (`hs`); the grid descriptor's stream
@@ -467,6 +478,12 @@ private:
                 StringSink sink(bytes);
                 std::ostream hs(&sink);
                 auto put = [&](const char* p, std::size_t n) {
+                    // The seal (io/checksum.hpp) hashed as the bytes go out; its placeholder is
+                    // in the file metadata, the first bytes written.
+                    if (sealAt_ < 0)
+                        if (const std::size_t d = findChecksumDigits(p, n); d != std::string::npos)
+                            sealAt_ = offset + static_cast<std::int64_t>(d);
+                    sum_.add(p, n);
                     if (int err = writeAll(fd, p, n))
                         throw RuntimeError(std::string("the write failed (disk full?): ") + std::strerror(err));
                     offset += static_cast<std::int64_t>(n);
@@ -823,7 +840,6 @@ VdbWriteReport writeVdbFrame(const fs::path& path, const std::vector<VdbObjectFr
         archive.writeFile(tmp, constGrids, 2 * objects.size(), later, meta, settings.writer == VdbWriter::Parallel,
                           report.stages);
         verifyWritten(tmp, names);
-        sealFileChecksum(tmp);
     });
     report.writeSeconds = since(t1);
     report.stages.verify = report.writeSeconds - report.stages.file;
