@@ -1,6 +1,6 @@
 #pragma once
 /// @file image_compare.hpp
-/// @brief The golden-image rule (docs/conventions.md, "Golden images"): compare decoded pixels;
+/// @brief The golden-image rule (docs/rendering.md, "Golden images"): compare decoded pixels;
 /// a pixel differs when max over R,G,B,A of |a - b| (8-bit code values) exceeds `threshold`;
 /// the images match when at most `maxFraction` of the pixels differ (and none exceeds `hard`).
 

@@ -2,7 +2,7 @@
 /// @file mesh_distance.hpp
 /// @brief The exact signed distance to a closed triangle mesh, queried point by point through a
 /// bounding-volume hierarchy over its triangles: the distance between bodies in contact
-/// (sim/simulation, the other body's lattice surface; docs/math.md, "Distance between bodies").
+/// (sim/simulation, the other body's lattice surface; docs/gln.md, "Objects colliding").
 ///
 /// The magnitude is the Euclidean distance to the nearest point of the mesh. The sign is that of
 /// (x − c) · n at the nearest point c, n the angle-weighted pseudonormal of the feature c lies on

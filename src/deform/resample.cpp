@@ -1,4 +1,4 @@
-// Resampling deformed lattices onto a world grid (resample.hpp; docs/vdb.md, "Resampling").
+// Resampling deformed lattices onto a world grid (resample.hpp; docs/vdb.md, "How the world grids are resampled").
 //
 // Each lattice cell is the trilinear image x(s), s in [0,1]^3, of its 8 corners.
 // A world voxel (centre p, size vs) takes from cell c the coverage

@@ -1,6 +1,6 @@
 #pragma once
 /// @file resample.hpp
-/// @brief Deformed lattices resampled onto a world grid of voxels (docs/vdb.md, "Resampling"):
+/// @brief Deformed lattices resampled onto a world grid of voxels (docs/vdb.md, "How the world grids are resampled"):
 /// per voxel the share of it the bodies cover (density) and the coverage-weighted means of the
 /// velocity, the rest position and the contact flag. Each cell's trilinear map is inverted at
 /// the voxel centres by Newton's method, in vector registers where the CPU has them; a voxel's

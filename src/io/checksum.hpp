@@ -8,7 +8,7 @@
 /// the checksum of the whole file with the digits themselves read as '0', so a writer puts the
 /// tag and 16 zeros in the file, hashes what it wrote and patches the digits in place, and a
 /// reader checks a file before any decoder sees it: a flipped bit anywhere, a truncation or a
-/// foreign block is found by the bytes alone (docs/robustness.md, "Resume").
+/// foreign block is found by the bytes alone (docs/robustness.md, "Seals").
 
 #include <cstddef>
 #include <cstdint>

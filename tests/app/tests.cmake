@@ -1,1 +1,2 @@
 list(APPEND DGV_TEST_SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_cli.cpp)
+list(APPEND DGV_TEST_SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_doc_citations.cpp)

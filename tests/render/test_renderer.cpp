@@ -1,4 +1,4 @@
-// Renderer behaviour through pixel probes (docs/conventions.md, "Golden images": probes at known
+// Renderer behaviour through pixel probes (docs/rendering.md, "Golden images": probes at known
 // pixels complement whole-image comparison).
 
 #include "render/renderer.hpp"

@@ -1,5 +1,5 @@
 // The float V-cycle (MultigridSettings::floatCycle), the value-free products of unit rows and the
-// zero 4th column of the position solve (docs/solvers.md, "Mixed precision").
+// zero 4th column of the position solve (docs/solvers.md, "The production solver").
 #include <catch2/catch.hpp>
 
 #include "solve/multigrid.hpp"
