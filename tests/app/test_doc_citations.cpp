@@ -83,3 +83,41 @@ TEST_CASE("docs: every cited docs section exists", "[docs]") {
     CHECK(cited > 200);
     CHECK(broken.empty());
 }
+
+TEST_CASE("docs: the equation table's test files exist", "[docs]") {
+    // docs/math.md, "Equation → file": each row's tests column lists `tests/dir/test_x.cpp` and
+    // then `test_y.cpp` of the same folder.
+    const fs::path root = dgv::test::sourcePath(".");
+    const std::string math = readText(root / "docs" / "math.md");
+    const std::size_t start = math.find("| equations | what | where | tests | status |");
+    REQUIRE(start != std::string::npos);
+    std::istringstream rows(math.substr(start, math.find("\n\n", start) - start));
+    static const std::regex path(R"(`([^`]+\.cpp)`)");
+    int rowsRead = 0, files = 0;
+    std::vector<std::string> missing;
+    for (std::string row; std::getline(rows, row);) {
+        if (row.rfind("| equations", 0) == 0 || row.rfind("|---", 0) == 0) continue;
+        std::vector<std::string> cells;
+        for (std::size_t at = 1, bar; (bar = row.find(" | ", at)) != std::string::npos; at = bar + 3)
+            cells.push_back(row.substr(at, bar - at));
+        REQUIRE(cells.size() == 4);  // equations, what, where, tests (status ends the row)
+        ++rowsRead;
+        std::string folder;
+        for (auto it = std::sregex_iterator(cells[3].begin(), cells[3].end(), path); it != std::sregex_iterator();
+             ++it) {
+            std::string file = (*it)[1];
+            if (file.rfind("tests/", 0) == 0)
+                folder = file.substr(0, file.rfind('/') + 1);
+            else
+                file = folder + file;
+            ++files;
+            if (!fs::exists(root / file)) missing.push_back(file);
+        }
+    }
+    std::string list;
+    for (const std::string& m : missing) list += " " + m;
+    INFO("missing:" << list);
+    CHECK(rowsRead >= 10);
+    CHECK(files >= rowsRead);
+    CHECK(missing.empty());
+}
