@@ -56,7 +56,7 @@ void parseResolution(const std::string& text, int& width, int& height) {
 
 /// The keyframed camera at `frame`: eye, target and fov interpolated linearly between the keys
 /// around it, held before the first and after the last.
-Camera keyframedCamera(const CameraDesc& c, Real frame) {
+Camera keyframedCamera(const CameraDesc& c, Real frame, Real aspect) {
     Camera cam;
     cam.up = c.up;
     const std::vector<CameraKey>& k = c.keys;
@@ -67,26 +67,26 @@ Camera keyframedCamera(const CameraDesc& c, Real frame) {
     const Real t = (b.frame > a.frame) ? std::clamp((frame - a.frame) / (b.frame - a.frame), Real(0), Real(1)) : 0;
     cam.eye = (1 - t) * a.eye + t * b.eye;
     cam.target = (1 - t) * a.target + t * b.target;
-    cam.fovYDegrees = (1 - t) * a.fovDegrees + t * b.fovDegrees;
+    cam.fovYDegrees = (1 - t) * CameraDesc::verticalFov(a, aspect) + t * CameraDesc::verticalFov(b, aspect);
     return cam;
 }
 
 Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real aspect) {
     const CameraDesc& c = scene.camera;
-    if (c.type == CameraType::Keyframed) return keyframedCamera(c, frame);
+    if (c.type == CameraType::Keyframed) return keyframedCamera(c, frame, aspect);
     if (c.type == CameraType::LookAt) {
         Camera cam;
         cam.eye = c.eye;
         cam.target = c.target;
         cam.up = c.up;
-        cam.fovYDegrees = c.fovDegrees;
+        cam.fovYDegrees = c.verticalFov(aspect);
         return cam;
     }
     // A full turn over the range comes back to the start on the frame after the last, so the
     // sequence loops without a repeated frame.
     const Real frames = scene.frameEnd - scene.frameStart + 1;
     const Real angle = c.startDegrees + c.degrees * (frame - scene.frameStart) / frames;
-    return turntableCamera(bounds, angle, c.elevationDegrees, c.fovDegrees, aspect, c.margin);
+    return turntableCamera(bounds, angle, c.elevationDegrees, c.verticalFov(aspect), aspect, c.margin);
 }
 
 /// Thumbnail of at most `maxWidth` pixels across: a box filter over whole source pixels (on

@@ -237,6 +237,20 @@ private:
     std::set<std::string> mKnown;
 };
 
+/// `focal_length` and `sensor` (millimetres) of a camera or a key, instead of `fov`; `inherited`
+/// when neither is given (a key takes its camera's lens).
+std::optional<Lens> readLens(ObjectReader& c, std::optional<Lens> inherited) {
+    if (!c.has("focal_length")) {
+        if (c.has("sensor")) c.fail("sensor", "applies with focal_length");
+        return inherited;
+    }
+    if (c.has("fov")) c.fail("focal_length", "give fov or focal_length, not both");
+    Lens lens;
+    lens.focalLengthMm = c.number("focal_length", lens.focalLengthMm, 1, 10000);
+    lens.sensorMm = c.number("sensor", inherited ? inherited->sensorMm : lens.sensorMm, 1, 500);
+    return lens;
+}
+
 /// The eye far beyond what it looks at overflows the view direction (a NaN that reads as "up is
 /// parallel to the view"): refused with its own message. 1e12 m is past any shot's scale.
 void checkCameraSpan(ObjectReader& c, const Vec3& eye, const Vec3& target) {
@@ -691,6 +705,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         CameraDesc& d = s.camera;
         std::string type = c.choice("type", "turntable", {"turntable", "look_at", "keyframed"});
         d.fovDegrees = c.number("fov", d.fovDegrees, 1, 170);
+        d.lens = readLens(c, std::nullopt);
         if (type == "turntable") {
             d.type = CameraType::Turntable;
             d.degrees = c.number("degrees", d.degrees, -36000, 36000);
@@ -708,6 +723,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 key.eye = k.vec3("eye", key.eye);
                 key.target = k.vec3("target", key.target);
                 key.fovDegrees = k.number("fov", d.fovDegrees, 1, 170);
+                key.lens = readLens(k, k.has("fov") ? std::nullopt : d.lens);  // a key's fov overrides the camera's lens
                 if (i > 0 && key.frame <= d.keys.back().frame) k.fail("frame", "key frames must increase");
                 checkCameraSpan(k, key.eye, key.target);
                 if ((key.eye - key.target).norm() < 1e-9) k.fail("target", "must differ from eye");

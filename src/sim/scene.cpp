@@ -32,6 +32,13 @@ Vec3 CurveDesc::offsetAt(Real frame) const {
 
 namespace dgv {
 
+Real lensVerticalFovDegrees(const Lens& lens, Real aspect) {
+    // tan(fov/2) = (sensor / 2) / focal along the sensor's side: the longer one.
+    const Real along = lens.sensorMm / (2 * lens.focalLengthMm);
+    const Real vertical = aspect > 1 ? along / aspect : along;
+    return 2 * std::atan(vertical) * (180 / 3.141592653589793);
+}
+
 Real resolvedStiffness(const MaterialDesc& m, Real halfHeight) {
     constexpr Real kTwoPi = 6.283185307179586, kStandardGravity = 9.81;
     switch (m.stiffnessFrom) {

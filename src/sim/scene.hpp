@@ -11,6 +11,7 @@
 #include "geom/voxelise.hpp"
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -156,16 +157,35 @@ enum class CameraType { Turntable, LookAt, Keyframed };
 
 /// One key of a keyframed camera: at `frame` the camera is at `eye`, looks at `target`, with
 /// vertical field of view `fovDegrees`. Between keys each is interpolated linearly.
+/// A field of view given as a lens, as in Maya, Houdini and Blender: a focal length and a sensor
+/// (film back) in millimetres. The sensor spans the image's longer side (Blender's "auto" fit),
+/// so the vertical field of view depends on the render's aspect (CameraDesc::verticalFov).
+struct Lens {
+    Real focalLengthMm = 50;
+    Real sensorMm = 36;
+};
+
+/// The vertical field of view, in degrees, of `lens` on an image of width/height `aspect`.
+Real lensVerticalFovDegrees(const Lens& lens, Real aspect);
+
 struct CameraKey {
     Real frame = 1;
     Vec3 eye = Vec3(0, 1, 5);
     Vec3 target = Vec3::Zero();
     Real fovDegrees = 35;
+    std::optional<Lens> lens;  ///< focal_length (and sensor) instead of fov
 };
 
 struct CameraDesc {
     CameraType type = CameraType::Turntable;
-    Real fovDegrees = 35;  ///< vertical field of view
+    Real fovDegrees = 35;      ///< vertical field of view
+    std::optional<Lens> lens;  ///< focal_length (and sensor) instead of fov
+    /// The vertical field of view in degrees on an image of width/height `aspect`: the lens's
+    /// when there is one, else fovDegrees. The same for a key.
+    Real verticalFov(Real aspect) const { return lens ? lensVerticalFovDegrees(*lens, aspect) : fovDegrees; }
+    static Real verticalFov(const CameraKey& k, Real aspect) {
+        return k.lens ? lensVerticalFovDegrees(*k.lens, aspect) : k.fovDegrees;
+    }
     // turntable: orbits `degrees` over the frame range, starting at `startDegrees`, framed on
     // the bounds of all objects at rest
     Real degrees = 360;

@@ -495,6 +495,43 @@ TEST_CASE("cli: imgdiff passes identical images and fails different ones", "[app
     CHECK(fs::exists(dir.path() / "d" / "small.0001.new.png"));
 }
 
+TEST_CASE("cli: a camera's focal length and sensor in millimetres frame as the field of view they make",
+          "[app][cli][render]") {
+    // A 64 x 48 render (aspect 4:3): a 36 mm sensor spans the width, so a lens of f mm has the
+    // vertical field of view 2 atan(36 / (2 f) * 3 / 4). f = 40.5 mm gives 2 atan(1/3) = 36.87°.
+    test::TempDir dir("cli_lens");
+    const double fovY = 2 * std::atan(1.0 / 3.0) * 180 / M_PI;
+    char fov[64];
+    std::snprintf(fov, sizeof fov, "%.17g", fovY);
+    for (const std::string& cam :
+         {std::string(R"("fov": )") + fov, std::string(R"("focal_length": 40.5)"),
+          std::string(R"("focal_length": 40.5, "sensor": 36)"), std::string(R"("focal_length": 20)")}) {
+        const fs::path sub = dir.path() / std::to_string(cam.size());
+        fs::create_directories(sub);
+        const fs::path scene = writeSmallScene(
+            sub, R"(, "camera": {"type": "look_at", "eye": [0, 0.5, 3], "target": [0, 0, 0], )" + cam + "}");
+        REQUIRE(test::runDgv("-q render " + q(scene) + " --out " + q(sub / "o")).exitCode == 0);
+    }
+    auto png = [&](const std::string& cam) {
+        return q(dir.path() / std::to_string(cam.size()) / "o" / "small.0001.png");
+    };
+    const std::string byFov = std::string(R"("fov": )") + fov;
+    // The same field of view: the same pixels (within the golden-image rule).
+    CHECK(test::runDgv("imgdiff " + png(byFov) + " " + png(R"("focal_length": 40.5)")).exitCode == 0);
+    CHECK(test::runDgv("imgdiff " + png(byFov) + " " + png(R"("focal_length": 40.5, "sensor": 36)")).exitCode == 0);
+    // A wider lens frames another picture.
+    CHECK(test::runDgv("imgdiff " + png(byFov) + " " + png(R"("focal_length": 20)")).exitCode == 1);
+    // fov and focal_length together, and a sensor without a focal length, are refused.
+    const fs::path both = writeSmallScene(dir.path(), R"(, "camera": {"fov": 30, "focal_length": 35})");
+    const auto bad = test::runDgv("render " + q(both) + " --out " + q(dir.path() / "bad"));
+    CHECK(bad.exitCode == 2);
+    CHECK_THAT(bad.output, Catch::Contains("camera.focal_length: give fov or focal_length, not both"));
+    const fs::path sensor = writeSmallScene(dir.path(), R"(, "camera": {"sensor": 24})");
+    const auto alone = test::runDgv("render " + q(sensor) + " --out " + q(dir.path() / "bad"));
+    CHECK(alone.exitCode == 2);
+    CHECK_THAT(alone.output, Catch::Contains("camera.sensor: applies with focal_length"));
+}
+
 TEST_CASE("cli: every benchmark runs and prints name: value unit lines", "[app][cli][bench][slow]") {
     auto r = test::runDgv("bench --quick --repeats 1");
     INFO(r.output);

@@ -179,6 +179,34 @@ TEST_CASE("scene_json: every bad input names the file, the JSON path and the pro
     }
 }
 
+TEST_CASE("scene_json: a camera's lens in millimetres, on the camera and on its keys", "[io][scene][render]") {
+    const SceneDesc s = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}],
+      "camera": {"type": "keyframed", "focal_length": 50, "sensor": 24, "keys": [
+        {"frame": 1, "eye": [0, 1, 5], "target": [0, 0, 0]},
+        {"frame": 12, "eye": [0, 1, 4], "target": [0, 0, 0], "focal_length": 85},
+        {"frame": 24, "eye": [5, 1, 0], "target": [0, 0.5, 0], "fov": 20}]}})",
+                                   "lens.json");
+    REQUIRE(s.camera.lens);
+    CHECK(s.camera.lens->focalLengthMm == 50);
+    CHECK(s.camera.lens->sensorMm == 24);
+    REQUIRE(s.camera.keys.size() == 3);
+    REQUIRE(s.camera.keys[0].lens);  // a key without its own takes the camera's lens
+    CHECK(s.camera.keys[0].lens->focalLengthMm == 50);
+    REQUIRE(s.camera.keys[1].lens);  // its own focal length, the camera's sensor
+    CHECK(s.camera.keys[1].lens->focalLengthMm == 85);
+    CHECK(s.camera.keys[1].lens->sensorMm == 24);
+    CHECK(!s.camera.keys[2].lens);  // a key's fov overrides the camera's lens
+    CHECK(CameraDesc::verticalFov(s.camera.keys[2], 16.0 / 9) == 20);
+    // The closed form: the sensor spans the longer side. 36 mm at 50 mm: 39.60° across a 16:9
+    // frame, so 2 atan(0.36 * 9 / 16) = 22.90° vertically; on a portrait frame the sensor is
+    // the height: 39.60°.
+    const Lens normal{50, 36};
+    CHECK(lensVerticalFovDegrees(normal, 16.0 / 9) == Approx(2 * std::atan(0.36 * 9 / 16) * 180 / M_PI));
+    CHECK(lensVerticalFovDegrees(normal, 16.0 / 9) == Approx(22.895).margin(1e-3));
+    CHECK(lensVerticalFovDegrees(normal, 9.0 / 16) == Approx(39.598).margin(1e-3));
+    CHECK(s.camera.verticalFov(1.0) == Approx(2 * std::atan(0.24) * 180 / M_PI));
+}
+
 TEST_CASE("scene_json: keyframed camera and crease angle", "[io][scene][render]") {
     const SceneDesc s = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}],
       "camera": {"type": "keyframed", "fov": 30, "keys": [
