@@ -84,8 +84,9 @@ SdfGrid readVdbLevelSet(const std::filesystem::path& path, const std::string& gr
         openvdb::GridBase::Ptr base;
         if (!gridName.empty()) {
             if (!f.hasGrid(gridName)) {
+                const bool none = f.readAllGridMetadata()->empty();
                 f.close();
-                bad("no grid named '" + gridName + "'");
+                bad(none ? "the file holds no grids (is it cut short?)" : "no grid named '" + gridName + "'");
             }
             base = f.readGrid(gridName);
         } else {

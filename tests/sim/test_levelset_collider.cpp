@@ -308,6 +308,8 @@ TEST_CASE("e2e: a bad level-set collider exits 2 with one line and writes nothin
         {R"({"type": "levelset", "file": "fog.vdb", "grid": "density"})", {"fog.vdb", "not a level set"}},
         // The shipped cube cut after 400 bytes: OpenVDB's message is cut to one short line.
         {R"({"type": "levelset", "file": "cut.vdb"})", {"cut.vdb", "cannot read it as OpenVDB: RuntimeError"}},
+        // Cut after its header: no grid at all, said as such rather than "no grid named 'surface'".
+        {R"({"type": "levelset", "file": "head.vdb", "grid": "surface"})", {"head.vdb", "holds no grids"}},
     };
     const std::string cube = e2e::readAll(test::sourcePath("scenes") / "levelsets" / "cube.vdb");
     int index = 0;
@@ -316,6 +318,7 @@ TEST_CASE("e2e: a bad level-set collider exits 2 with one line and writes nothin
         fs::create_directories(d);
         writeGrids(d / "fog.vdb", {fog});
         std::ofstream(d / "cut.vdb", std::ios::binary) << cube.substr(0, 400);
+        std::ofstream(d / "head.vdb", std::ios::binary) << cube.substr(0, 10);
         std::ofstream(d / "s.json") << R"({"frames": {"start": 1, "end": 2}, )" << kObject
                                     << R"(, "forces": [{"type": "gravity"}], "colliders": [)" << collider
                                     << R"(], "render": {"width": 32, "height": 32, "supersample": 1}})";
