@@ -752,6 +752,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.background = g.color("background", d.background);
         d.transparent = g.boolean("transparent", d.transparent);
         d.ground = g.boolean("ground", d.ground);
+        d.groundGiven = g.has("ground");
         d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
         d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
         d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);

@@ -227,6 +227,7 @@ struct RenderDesc {
     Vec3 background = Vec3(0.18, 0.19, 0.21);  ///< linear RGB (the file gives sRGB)
     bool transparent = false;
     bool ground = true;
+    bool groundGiven = false;  ///< the scene sets render.ground (view/frame_view: the floor of a moving shot)
     int bitDepth = 8;
     Real creaseDegrees = 40;   ///< normals split along edges sharper than this (180: smooth)
     Real shadowSoftness = 3;   ///< the key light's angular radius, degrees (0: hard shadows)

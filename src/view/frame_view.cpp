@@ -19,6 +19,15 @@ namespace {
 /// patch (each pass reaches one triangle further).
 constexpr int kHighlightSmoothing = 4;
 
+/// Whether the scene's bodies move: a force, or an initial velocity or spin (as sim/simulation
+/// decides whether it simulates).
+bool sceneMoves(const SceneDesc& scene) {
+    if (!scene.forces.empty()) return true;
+    for (const ObjectDesc& o : scene.objects)
+        if (o.deformable && (o.velocity.squaredNorm() > 0 || o.spinDegrees.squaredNorm() > 0)) return true;
+    return false;
+}
+
 }  // namespace
 
 FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, std::vector<DrawMesh> colliders)
@@ -43,6 +52,17 @@ FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, st
         for (const Vec3& p : m.positions) mBounds.extend(p);
         m.opacity = rd.colliderOpacity;  // render.collider_opacity: see the contact behind
         mFrame.meshes.push_back(std::move(m));
+    }
+    // A moving shot without a ground collider: a floor under each frame's lowest point followed
+    // the bodies, so floating goo looked as if it slid on a table, and a floor under the whole
+    // shot's lowest point is not known until the shot has run (a range of frames rendered on a
+    // farm must draw the same floor as the whole). So the floor is off; where the scene sets
+    // render.ground, it is fixed under the shapes at rest (what passes below it is cut by it).
+    if (!mFrame.groundHeight && sceneMoves(scene)) {
+        if (rd.groundGiven && rd.ground && !mBounds.empty())
+            mFrame.groundHeight = mBounds.min.y();
+        else
+            mFrame.groundPlane = false;
     }
     // Contact highlighting (render.contact): the contact set R as a ramp on each moving surface.
     for (std::size_t i = 0; i < mObjects.size(); ++i) {

@@ -136,3 +136,46 @@ TEST_CASE("view: objects, then colliders framed with them, then lattice dots and
     CHECK(frame.points[1].points.empty());
     CHECK(frame.points[1].colour == scene.render.pinColour);
 }
+
+TEST_CASE("view: the floor of a moving shot without a ground collider does not follow the bodies", "[view]") {
+    // A floor under each frame's lowest point followed floating goo, as if it slid on a table.
+    const DrawnBall ball(0.3);
+    ObjectDesc moving;
+    moving.velocity = Vec3(0, 0, 1);
+    SceneDesc still;  // no forces, no motion: a turntable's studio floor under the meshes, as before
+    still.objects.push_back(ObjectDesc());
+    {
+        FrameView view(still, {ball.object()}, {});
+        const FrameScene& frame = view.update({ViewBody{}}, Camera());
+        CHECK(frame.groundPlane);
+        CHECK(!frame.groundHeight);
+    }
+    SceneDesc floating;  // moving, no ground collider: no floor
+    floating.objects.push_back(moving);
+    {
+        FrameView view(floating, {ball.object()}, {});
+        const FrameScene& frame = view.update({ViewBody{}}, Camera());
+        CHECK(!frame.groundPlane);
+    }
+    // render.ground set: a floor fixed for the whole shot under the shapes at rest.
+    floating.render.ground = true;
+    floating.render.groundGiven = true;
+    {
+        FrameView view(floating, {ball.object()}, {});
+        const FrameScene& frame = view.update({ViewBody{}}, Camera());
+        CHECK(frame.groundPlane);
+        REQUIRE(frame.groundHeight);
+        CHECK(*frame.groundHeight == Approx(view.bounds().min.y()));
+        CHECK(*frame.groundHeight == Approx(0.3).margin(1e-12));  // the ball's lowest point at rest
+    }
+    // A ground collider: the floor at its height, moving or not.
+    SceneDesc grounded = groundScene();
+    grounded.objects.push_back(moving);
+    {
+        FrameView view(grounded, {ball.object()}, {});
+        const FrameScene& frame = view.update({ViewBody{}}, Camera());
+        CHECK(frame.groundPlane);
+        REQUIRE(frame.groundHeight);
+        CHECK(*frame.groundHeight == 0);
+    }
+}
