@@ -67,7 +67,7 @@ Camera keyframedCamera(const CameraDesc& c, Real frame, Real aspect) {
     const Real t = (b.frame > a.frame) ? std::clamp((frame - a.frame) / (b.frame - a.frame), Real(0), Real(1)) : 0;
     cam.eye = (1 - t) * a.eye + t * b.eye;
     cam.target = (1 - t) * a.target + t * b.target;
-    cam.fovYDegrees = (1 - t) * CameraDesc::verticalFov(a, aspect) + t * CameraDesc::verticalFov(b, aspect);
+    cam.fovYDegrees = (1 - t) * a.vertical(aspect) + t * b.vertical(aspect);
     return cam;
 }
 
@@ -79,14 +79,14 @@ Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real a
         cam.eye = c.eye;
         cam.target = c.target;
         cam.up = c.up;
-        cam.fovYDegrees = c.verticalFov(aspect);
+        cam.fovYDegrees = c.vertical(aspect);
         return cam;
     }
     // A full turn over the range comes back to the start on the frame after the last, so the
     // sequence loops without a repeated frame.
     const Real frames = scene.frameEnd - scene.frameStart + 1;
     const Real angle = c.startDegrees + c.degrees * (frame - scene.frameStart) / frames;
-    return turntableCamera(bounds, angle, c.elevationDegrees, c.verticalFov(aspect), aspect, c.margin);
+    return turntableCamera(bounds, angle, c.elevationDegrees, c.vertical(aspect), aspect, c.margin);
 }
 
 /// Thumbnail of at most `maxWidth` pixels across: a box filter over whole source pixels (on

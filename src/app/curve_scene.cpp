@@ -102,7 +102,7 @@ int renderCurveScene(const SceneDesc& scene, const RenderSettings& settings, int
     cam.eye = scene.camera.eye;
     cam.target = scene.camera.target;
     cam.up = scene.camera.up;
-    cam.fovYDegrees = scene.camera.verticalFov(Real(settings.width) / Real(settings.height));
+    cam.fovYDegrees = scene.camera.vertical(Real(settings.width) / Real(settings.height));
 
     ensureDirectory(scene.output.dir);
     PngWriteOptions png;

@@ -7,12 +7,9 @@
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"
 
-#include <unistd.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <string>
 
@@ -40,26 +37,15 @@ Captured runCaptured(const std::string& cmd) {
     return c;
 }
 
-/// The first line of `text` that is not blank, at most 200 characters.
-std::string firstLine(const std::string& text) {
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);) {
-        while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
-        if (!line.empty()) return line.size() > 200 ? line.substr(0, 200) + "..." : line;
-    }
-    return {};
-}
-
 /// ffmpeg's messages as the cause a user can act on: a full disk or a missing encoder named as
 /// such, anything else as ffmpeg's first line.
 std::string causeOf(const std::string& said) {
     auto has = [&](const char* s) { return said.find(s) != std::string::npos; };
     if (has("No space left on device")) return "the disk is full: No space left on device";
     if (has("Disk quota exceeded")) return "the disk quota is exceeded";
-    if (has("Unknown encoder") || has("Encoder not found") || has("encoder 'libx264'") || has("libx264"))
-        if (has("not found") || has("Unknown") || has("not available"))
-            return "this ffmpeg has no H.264 encoder (libx264): " + firstLine(said);
-    return "it said: " + firstLine(said);
+    if (has("Unknown encoder") || has("Encoder not found") || has("Encoder (codec"))
+        return "this ffmpeg has no H.264 encoder (libx264): " + libraryMessage(said);
+    return "it said: " + libraryMessage(said);
 }
 
 /// How many video frames the movie at `path` decodes to, and what the decoder said when it
@@ -75,7 +61,7 @@ Decoded decodeMovie(const fs::path& path) {
         const Captured c = runCaptured("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
                                        "stream=nb_read_frames -of csv=p=0 " +
                                        shellQuote(path.string()));
-        const std::string line = firstLine(c.output);
+        const std::string line = libraryMessage(c.output);
         char* end = nullptr;
         const long n = std::strtol(line.c_str(), &end, 10);
         if (c.status == 0 && !line.empty() && end && *end == '\0')
@@ -127,7 +113,7 @@ std::string writePreviewMovie(const SceneDesc& scene, int first, int last) {
     }
     const int frames = last - first + 1;
     std::string problem;
-    if (!firstLine(made.output).empty())
+    if (!libraryMessage(made.output).empty())
         problem = causeOf(made.output) + (made.status != 0 ? "; exit status " + std::to_string(made.status) : "");
     else if (made.status != 0)
         problem = "exit status " + std::to_string(made.status);
@@ -138,7 +124,7 @@ std::string writePreviewMovie(const SceneDesc& scene, int first, int last) {
         if (d.frames != frames)
             problem = "the movie decodes to " + (d.frames == 0 ? std::string("no") : std::to_string(d.frames)) +
                       " frames of " + std::to_string(frames) +
-                      (d.said.empty() ? "" : ": " + firstLine(d.said)) +
+                      (d.said.empty() ? "" : ": " + libraryMessage(d.said)) +
                       (fs::space(tmp.parent_path(), ec).available < (std::uintmax_t(1) << 20) && !ec
                            ? "; the disk is full"
                            : "");

@@ -33,8 +33,9 @@ private:
     std::string mInput, mWhere, mWhat;
 };
 
-/// A library's message (OpenVDB, assimp, nlohmann-json) as one short readable line: its first
-/// non-blank line, other control bytes as '?', cut to `limit` characters with "...". OpenVDB
+/// A library's or a tool's message (OpenVDB, assimp, nlohmann-json, ffmpeg) as one short readable
+/// line: its first non-blank line without trailing blanks ("" when there is none), other control
+/// bytes as '?', cut to `limit` characters with "...". OpenVDB
 /// echoes what it read from a damaged file: a truncated level set's message was 22,000
 /// characters of one line.
 inline std::string libraryMessage(const std::string& what, std::size_t limit = 200) {
@@ -52,6 +53,7 @@ inline std::string libraryMessage(const std::string& what, std::size_t limit = 2
             return line + "...";
         }
     }
+    line.erase(line.find_last_not_of(' ') + 1);
     return line;
 }
 

@@ -14,7 +14,7 @@ namespace dgv {
 
 namespace {
 
-constexpr std::uint64_t kBasis = 1469598103934665603ull, kPrime = 1099511628211ull;
+constexpr std::uint64_t kPrime = 1099511628211ull;  // FNV-1a's prime
 constexpr std::string_view kTag = "dgvsum:";
 constexpr std::size_t kDigits = 16;
 
@@ -104,35 +104,80 @@ void sealChecksum(std::string& bytes) {
     bytes.replace(at, kDigits, digits);
 }
 
+namespace {
+
+/// A sealed file read through once in chunks: where its seal's digits are (npos: none in its
+/// first chunk, where every writer puts it), the digits stored there, and the checksum of the
+/// whole with the digits read as '0'. errno's value in `error` when a read failed.
+struct FileSeal {
+    std::size_t digits = std::string::npos;
+    std::string stored;
+    std::uint64_t sum = 0;
+    int error = 0;
+};
+
+FileSeal readSeal(int fd) {
+    constexpr std::size_t kChunk = std::size_t(1) << 20;
+    std::vector<char> buf(kChunk);
+    FileSeal seal;
+    Checksum64 c;
+    for (bool first = true;; first = false) {
+        std::size_t got = 0;
+        while (got < kChunk) {  // whole chunks, so the first holds the header whatever read returns
+            const ssize_t k = ::read(fd, buf.data() + got, kChunk - got);
+            if (k < 0 && errno == EINTR) continue;
+            if (k < 0) {
+                seal.error = errno;
+                return seal;
+            }
+            if (k == 0) break;
+            got += static_cast<std::size_t>(k);
+        }
+        if (first) {
+            seal.digits = findChecksumDigits(buf.data(), got);
+            if (seal.digits == std::string::npos) return seal;
+            seal.stored.assign(buf.data() + seal.digits, kDigits);
+            std::memset(buf.data() + seal.digits, '0', kDigits);
+        }
+        c.add(buf.data(), got);
+        if (got < kChunk) break;
+    }
+    seal.sum = c.finish();
+    return seal;
+}
+
+}  // namespace
+
 void sealFileChecksum(const std::filesystem::path& path) {
     auto fail = [&](const std::string& what) {
         throw RuntimeError(path.string() + ": cannot seal the file (" + what + ")");
     };
     const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
     if (fd < 0) fail(std::strerror(errno));
-    std::vector<char> bytes;
-    char buf[1 << 16];
-    for (;;) {
-        const ssize_t k = ::read(fd, buf, sizeof buf);
-        if (k < 0 && errno == EINTR) continue;
-        if (k < 0) {
-            const int err = errno;
-            ::close(fd);
-            fail(std::strerror(err));
-        }
-        if (k == 0) break;
-        bytes.insert(bytes.end(), buf, buf + k);
+    const FileSeal seal = readSeal(fd);
+    if (seal.error != 0) {
+        ::close(fd);
+        fail(std::strerror(seal.error));
     }
-    const std::size_t at = findChecksumDigits(bytes.data(), bytes.size());
-    if (at == std::string::npos) {
+    if (seal.digits == std::string::npos) {
         ::close(fd);
         throw std::logic_error("sealFileChecksum: " + path.string() + " holds no placeholder");
     }
-    const std::string digits = checksumDigits(sealedChecksum(bytes.data(), bytes.size(), at));
-    const ssize_t w = ::pwrite(fd, digits.data(), kDigits, static_cast<off_t>(at));
+    const std::string digits = checksumDigits(seal.sum);
+    const ssize_t w = ::pwrite(fd, digits.data(), kDigits, static_cast<off_t>(seal.digits));
     const int err = w == static_cast<ssize_t>(kDigits) ? 0 : (w < 0 ? errno : EIO);
     if (::close(fd) != 0 && err == 0) fail(std::strerror(errno));
     if (err != 0) fail(std::strerror(err));
+}
+
+std::string fileChecksumProblem(const std::filesystem::path& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return std::string("cannot be read: ") + std::strerror(errno);
+    const FileSeal seal = readSeal(fd);
+    ::close(fd);
+    if (seal.error != 0) return std::string("cannot be read: ") + std::strerror(seal.error);
+    if (seal.digits == std::string::npos) return "has no checksum";
+    return seal.stored == checksumDigits(seal.sum) ? "" : "is corrupt (its checksum does not match)";
 }
 
 std::string checksumProblem(const char* data, std::size_t n) {

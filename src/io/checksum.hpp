@@ -26,8 +26,8 @@ public:
 
 private:
     void block(const char* p);
-    std::uint64_t lane_[4] = {1469598103934665603ull, 1469598103934665603ull ^ 1, 1469598103934665603ull ^ 2,
-                              1469598103934665603ull ^ 3};
+    static constexpr std::uint64_t kBasis = 1469598103934665603ull;  // FNV-1a's offset basis
+    std::uint64_t lane_[4] = {kBasis, kBasis ^ 1, kBasis ^ 2, kBasis ^ 3};
     char carry_[32] = {};
     std::size_t carried_ = 0;
     std::uint64_t length_ = 0;
@@ -52,10 +52,14 @@ std::uint64_t sealedChecksum(const char* data, std::size_t n, std::size_t digits
 /// it holds no placeholder (a writer's bug).
 void sealChecksum(std::string& bytes);
 
-/// Patches the placeholder of the file at `path`, written with one, in place: reads the file
-/// back, hashes it and writes the 16 digits (the caller syncs and renames it). RuntimeError naming
-/// the file when it cannot be read or written.
+/// Patches the placeholder of the file at `path`, written with one in its first MiB, in place:
+/// reads the file back in chunks, hashes it and writes the 16 digits (the caller syncs and
+/// renames it). RuntimeError naming the file when it cannot be read or written.
 void sealFileChecksum(const std::filesystem::path& path);
+
+/// checksumProblem of the file at `path`, read in chunks (a seal is looked for in its first MiB,
+/// where every writer puts it), or "cannot be read: <errno's text>".
+std::string fileChecksumProblem(const std::filesystem::path& path);
 
 /// Why n bytes are not a sealed file whose seal matches ("" when they are): "has no checksum"
 /// (written before dgv sealed its files, or the tag itself damaged) or "is corrupt (its checksum

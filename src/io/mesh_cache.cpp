@@ -55,17 +55,6 @@ void putInt(std::string& out, int v) {
     out.append(reinterpret_cast<const char*>(b), 4);
 }
 
-/// The file's seal (io/checksum.hpp), checked after the header's own tests so that a truncated
-/// or foreign file is named as such: any other byte changed anywhere in the file.
-std::string sealProblem(const fs::path& path) {
-    try {
-        const std::string bytes = readInputFile(path, "mesh cache frame", std::uintmax_t(1) << 36);
-        return checksumProblem(bytes.data(), bytes.size());
-    } catch (const std::exception& e) {
-        return std::string("cannot be read: ") + e.what();
-    }
-}
-
 }  // namespace
 
 MeshCacheFormat meshCacheFormatFromName(const std::string& name, const std::string& where) {
@@ -158,7 +147,7 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     if (gotKey != key) return "is of another version of the scene";
     if (ply) {
         if (!ended || size != headerBytes + vertices * kPlyVertexBytes + faces * kPlyFaceBytes) return "is truncated";
-        return sealProblem(path);
+        return fileChecksumProblem(path);  // the seal: any other byte changed
     }
     // OBJ: the last line is the end line.
     const std::size_t tail = std::strlen(kObjEnd) + 1;
@@ -167,7 +156,7 @@ std::string meshCacheFileProblem(const fs::path& path, MeshCacheFormat format, i
     in.seekg(static_cast<std::streamoff>(size - tail));
     std::string last;
     std::getline(in, last);
-    return last == kObjEnd ? sealProblem(path) : "is truncated";
+    return last == kObjEnd ? fileChecksumProblem(path) : "is truncated";
 }
 
 MeshCacheData readMeshCacheFrame(const fs::path& path) {

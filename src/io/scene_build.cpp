@@ -27,12 +27,8 @@ constexpr Real kFarthestInSizes = 1e9;
 void checkPlacement(const TriangleMesh& mesh, const ObjectDesc& desc, const std::string& sceneFile, int index) {
     const std::string where = "objects[" + std::to_string(index) + "]";
     if (mesh.vertices.empty()) return;
-    Vec3 lo = mesh.vertices[0], hi = lo;
-    for (const Vec3& v : mesh.vertices) {
-        lo = lo.cwiseMin(v);
-        hi = hi.cwiseMax(v);
-    }
-    const Real size = (hi - lo).maxCoeff();
+    const Box3 box = meshBounds(mesh);
+    const Real size = box.size().maxCoeff();
     const bool scaled = desc.transform.scale != Vec3::Ones();
     const std::string sizeKey = desc.isPrimitive && !scaled ? where + ".primitive" : where + ".transform.scale";
     char line[400];
@@ -44,7 +40,7 @@ void checkPlacement(const TriangleMesh& mesh, const ObjectDesc& desc, const std:
                       desc.isPrimitive ? "" : " (transform.scale or transform.units)");
         throw InputError(sceneFile, sizeKey, line);
     }
-    const Vec3 centre = (lo + hi) / 2 + desc.transform.translate;
+    const Vec3 centre = (box.min + box.max) / 2 + desc.transform.translate;
     const Real far = centre.lpNorm<Eigen::Infinity>();  // no overflow for any finite translate
     if (!std::isfinite(far) || far > kFarthestInSizes * size) {
         std::snprintf(line, sizeof line,
@@ -159,9 +155,7 @@ BuiltObject buildObject(const SceneDesc& scene, int index, std::size_t memoryBud
 
 std::vector<BuiltObject> buildObjects(const SceneDesc& scene, bool vdb) {
     // As sim/simulation decides which bodies it builds: any force or initial motion, or a cache.
-    bool simulated = vdb || !scene.forces.empty();
-    for (const ObjectDesc& o : scene.objects)
-        if (o.deformable && (o.velocity.squaredNorm() > 0 || o.spinDegrees.squaredNorm() > 0)) simulated = true;
+    const bool simulated = vdb || sceneMoves(scene);
     const std::size_t budget = memoryBudgetBytes();
     std::size_t used = 0;
     std::vector<BuiltObject> objects;

@@ -151,12 +151,7 @@ std::string vdbFrameProblem(const std::filesystem::path& path, int frame, const 
     if (!std::filesystem::is_regular_file(path, ec)) return "missing";
     // The bytes first: OpenVDB's reader trusts the topology it reads, and a flipped bit there can
     // corrupt its heap (measured: an abort in malloc), so nothing damaged reaches it.
-    try {
-        const std::string bytes = readInputFile(path, "VDB frame", std::uintmax_t(1) << 40);
-        if (std::string why = checksumProblem(bytes.data(), bytes.size()); !why.empty()) return why;
-    } catch (const std::exception& e) {
-        return "does not read: " + libraryMessage(e.what());
-    }
+    if (std::string why = fileChecksumProblem(path); !why.empty()) return why;
     try {
         // OpenVDB's default reader (delayed loading, what Houdini and Blender use), every leaf
         // of every grid loaded.

@@ -32,6 +32,13 @@ Vec3 CurveDesc::offsetAt(Real frame) const {
 
 namespace dgv {
 
+bool sceneMoves(const SceneDesc& scene) {
+    if (!scene.forces.empty()) return true;
+    for (const ObjectDesc& o : scene.objects)
+        if (o.deformable && (o.velocity.squaredNorm() > 0 || o.spinDegrees.squaredNorm() > 0)) return true;
+    return false;
+}
+
 Real lensVerticalFovDegrees(const Lens& lens, Real aspect) {
     // tan(fov/2) = (sensor / 2) / focal along the sensor's side: the longer one.
     const Real along = lens.sensorMm / (2 * lens.focalLengthMm);

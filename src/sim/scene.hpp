@@ -159,7 +159,7 @@ enum class CameraType { Turntable, LookAt, Keyframed };
 /// vertical field of view `fovDegrees`. Between keys each is interpolated linearly.
 /// A field of view given as a lens, as in Maya, Houdini and Blender: a focal length and a sensor
 /// (film back) in millimetres. The sensor spans the image's longer side (Blender's "auto" fit),
-/// so the vertical field of view depends on the render's aspect (CameraDesc::verticalFov).
+/// so the vertical field of view depends on the render's aspect (FieldOfView::vertical).
 struct Lens {
     Real focalLengthMm = 50;
     Real sensorMm = 36;
@@ -168,24 +168,22 @@ struct Lens {
 /// The vertical field of view, in degrees, of `lens` on an image of width/height `aspect`.
 Real lensVerticalFovDegrees(const Lens& lens, Real aspect);
 
-struct CameraKey {
+/// A field of view as a camera or a key gives it: `fov`, or a lens instead.
+struct FieldOfView {
+    Real fovDegrees = 35;      ///< vertical field of view
+    std::optional<Lens> lens;  ///< focal_length (and sensor) instead of fov
+    /// The vertical field of view in degrees on an image of width/height `aspect`.
+    Real vertical(Real aspect) const { return lens ? lensVerticalFovDegrees(*lens, aspect) : fovDegrees; }
+};
+
+struct CameraKey : FieldOfView {
     Real frame = 1;
     Vec3 eye = Vec3(0, 1, 5);
     Vec3 target = Vec3::Zero();
-    Real fovDegrees = 35;
-    std::optional<Lens> lens;  ///< focal_length (and sensor) instead of fov
 };
 
-struct CameraDesc {
+struct CameraDesc : FieldOfView {
     CameraType type = CameraType::Turntable;
-    Real fovDegrees = 35;      ///< vertical field of view
-    std::optional<Lens> lens;  ///< focal_length (and sensor) instead of fov
-    /// The vertical field of view in degrees on an image of width/height `aspect`: the lens's
-    /// when there is one, else fovDegrees. The same for a key.
-    Real verticalFov(Real aspect) const { return lens ? lensVerticalFovDegrees(*lens, aspect) : fovDegrees; }
-    static Real verticalFov(const CameraKey& k, Real aspect) {
-        return k.lens ? lensVerticalFovDegrees(*k.lens, aspect) : k.fovDegrees;
-    }
     // turntable: orbits `degrees` over the frame range, starting at `startDegrees`, framed on
     // the bounds of all objects at rest
     Real degrees = 360;
@@ -313,5 +311,9 @@ struct SceneDesc {
     RenderDesc render;
     OutputDesc output;
 };
+
+/// Whether the scene's bodies move: a force, or a deformable object's initial velocity or spin
+/// (what decides whether a shot is simulated: io/scene_build, view/frame_view's floor).
+bool sceneMoves(const SceneDesc& scene);
 
 }  // namespace dgv

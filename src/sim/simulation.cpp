@@ -203,10 +203,9 @@ void Simulation::fitSubsteps() {
             stiffness = k;
         }
     }
-    const int most = std::max(mScene.substeps, mScene.maxSubsteps);
+    const int most = mMostSubsteps;  // the scene's (the constructor)
     const bool adaptive = most > mScene.substeps;
     auto ceilingOf = [&](int m) { return adaptive ? kRetrySubstepFactor * m : m; };  // the retry's count
-    mMostSubsteps = most;
     if (!(need > kRaiseAt * ceilingOf(most))) return;
     const int needed = static_cast<int>(std::ceil(std::min(need, Real(1e9))));
     char count[32];

@@ -161,7 +161,7 @@ public:
     static constexpr Real kStartOverlapVoxels = 1;
 
 private:
-    /// Sets mMostSubsteps: the scene's, raised to what the stiffest chain-step body's shape
+    /// Raises mMostSubsteps, the scene's, to what the stiffest chain-step body's shape
     /// memory needs when the scene leaves max_substeps unset; InputError naming the key to
     /// change when the most accepted (or the scene's max_substeps) is too few.
     void fitSubsteps();

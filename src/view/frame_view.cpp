@@ -19,15 +19,6 @@ namespace {
 /// patch (each pass reaches one triangle further).
 constexpr int kHighlightSmoothing = 4;
 
-/// Whether the scene's bodies move: a force, or an initial velocity or spin (as sim/simulation
-/// decides whether it simulates).
-bool sceneMoves(const SceneDesc& scene) {
-    if (!scene.forces.empty()) return true;
-    for (const ObjectDesc& o : scene.objects)
-        if (o.deformable && (o.velocity.squaredNorm() > 0 || o.spinDegrees.squaredNorm() > 0)) return true;
-    return false;
-}
-
 }  // namespace
 
 FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, std::vector<DrawMesh> colliders)

@@ -196,7 +196,7 @@ TEST_CASE("scene_json: a camera's lens in millimetres, on the camera and on its 
     CHECK(s.camera.keys[1].lens->focalLengthMm == 85);
     CHECK(s.camera.keys[1].lens->sensorMm == 24);
     CHECK(!s.camera.keys[2].lens);  // a key's fov overrides the camera's lens
-    CHECK(CameraDesc::verticalFov(s.camera.keys[2], 16.0 / 9) == 20);
+    CHECK(s.camera.keys[2].vertical(16.0 / 9) == 20);
     // The closed form: the sensor spans the longer side. 36 mm at 50 mm: 39.60° across a 16:9
     // frame, so 2 atan(0.36 * 9 / 16) = 22.90° vertically; on a portrait frame the sensor is
     // the height: 39.60°.
@@ -204,7 +204,7 @@ TEST_CASE("scene_json: a camera's lens in millimetres, on the camera and on its 
     CHECK(lensVerticalFovDegrees(normal, 16.0 / 9) == Approx(2 * std::atan(0.36 * 9 / 16) * 180 / M_PI));
     CHECK(lensVerticalFovDegrees(normal, 16.0 / 9) == Approx(22.895).margin(1e-3));
     CHECK(lensVerticalFovDegrees(normal, 9.0 / 16) == Approx(39.598).margin(1e-3));
-    CHECK(s.camera.verticalFov(1.0) == Approx(2 * std::atan(0.24) * 180 / M_PI));
+    CHECK(s.camera.vertical(1.0) == Approx(2 * std::atan(0.24) * 180 / M_PI));
 }
 
 TEST_CASE("scene_json: keyframed camera and crease angle", "[io][scene][render]") {
