@@ -288,8 +288,9 @@ struct Renderer::Impl {
     ShaderProgram meshProgram, meshPlainProgram, groundProgram, groundPlainProgram, shadowProgram, resolveProgram,
         overlayProgram;
 
-    // Supersampled target: RGBA16F colour texture + 24-bit depth renderbuffer.
-    GLuint sceneFbo = 0, sceneColour = 0, sceneDepth = 0;
+    // Supersampled target: RGBA16F colour texture + 24-bit depth renderbuffer (+ the contact
+    // matte, R16F, with RenderSettings::linearPlanes).
+    GLuint sceneFbo = 0, sceneColour = 0, sceneDepth = 0, sceneContact = 0;
     // Final target: RGBA16F at output size (linear, composited), read back as half floats and
     // encoded to 16-bit sRGB on the CPU through exact lookup tables.
     GLuint outFbo = 0, outColour = 0;
@@ -338,12 +339,13 @@ struct Renderer::Impl {
         const std::string groundSoft =
             soft + (softShadows && hasGlExtension("GL_ARB_derivative_control") ? "#define DGV_QUAD_SEARCH 1\n" : "");
         const std::string pcf = soft + (quadPcf ? "#define DGV_QUAD_PCF 1\n" : "");
-        meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf);
-        meshPlainProgram =
-            ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf + "#define DGV_SCALAR 0\n");
-        groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", groundSoft);
-        groundPlainProgram =
-            ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", "#define DGV_SHADOWS 0\n");
+        const std::string contactOut = s.linearPlanes ? "#define DGV_CONTACT_OUT 1\n" : "";
+        meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf + contactOut);
+        meshPlainProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl",
+                                         pcf + contactOut + "#define DGV_SCALAR 0\n");
+        groundProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl", groundSoft + contactOut);
+        groundPlainProgram = ShaderProgram(dir, "ground.vert", "ground.frag", "lighting.glsl",
+                                           contactOut + "#define DGV_SHADOWS 0\n");
         shadowProgram = ShaderProgram(dir, "shadow.vert", "shadow.frag");
         resolveProgram = ShaderProgram(dir, "resolve.vert", "resolve.frag", "",
                                        "#define DGV_FACTOR " + std::to_string(s.supersample) + "\n");
@@ -466,11 +468,12 @@ struct Renderer::Impl {
         if (sceneFbo) glDeleteFramebuffers(1, &sceneFbo);
         if (sceneColour) glDeleteTextures(1, &sceneColour);
         if (sceneDepth) glDeleteRenderbuffers(1, &sceneDepth);
+        if (sceneContact) glDeleteTextures(1, &sceneContact);
         if (outFbo) glDeleteFramebuffers(1, &outFbo);
         if (outColour) glDeleteTextures(1, &outColour);
         if (groundFbo) glDeleteFramebuffers(1, &groundFbo);
         if (groundColour) glDeleteTextures(1, &groundColour);
-        sceneFbo = sceneColour = sceneDepth = outFbo = outColour = groundFbo = groundColour = 0;
+        sceneFbo = sceneColour = sceneDepth = sceneContact = outFbo = outColour = groundFbo = groundColour = 0;
         targetWidth = targetHeight = targetFactor = 0;
     }
 
@@ -510,6 +513,15 @@ struct Renderer::Impl {
         glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, sceneColour, 0);
         glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, sceneDepth);
+        if (settings.linearPlanes) {
+            glGenTextures(1, &sceneContact);
+            glBindTexture(GL_TEXTURE_2D, sceneContact);
+            glTexImage2D(GL_TEXTURE_2D, 0, GL_R16F, sw, sh, 0, GL_RED, GL_HALF_FLOAT, nullptr);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+            glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_TEXTURE_2D, sceneContact, 0);
+        }
         checkFramebuffer("supersampled colour");
 
         makeColourTarget(w, h, outColour, outFbo, "output");
@@ -827,7 +839,77 @@ struct Renderer::Impl {
         return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }
 
-    Image render(const FrameScene& scene, const Camera& camera) {
+    /// The frame for compositing (Renderer::render's `linear`) from the resolve's half floats in
+    /// `readback` (bottom row first) and the scene pass's depth and contact matte. groundAtOutput:
+    /// the height of a ground drawn at output size, outside the depth buffer; its depth is the
+    /// view ray's, where the ground shows.
+    LinearImage linearPlanes(const Camera& camera, Real nearZ, Real farZ, std::optional<Real> groundAtOutput) {
+        const int w = settings.width, h = settings.height, factor = settings.supersample;
+        const int sw = w * factor, sh = h * factor;
+        std::vector<float> depth(static_cast<std::size_t>(sw) * sh), contact(depth.size());
+        glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
+        glPixelStorei(GL_PACK_ALIGNMENT, 4);
+        glReadPixels(0, 0, sw, sh, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+        glReadBuffer(GL_COLOR_ATTACHMENT1);
+        glReadPixels(0, 0, sw, sh, GL_RED, GL_FLOAT, contact.data());
+        glReadBuffer(GL_COLOR_ATTACHMENT0);
+        std::vector<std::uint16_t> ground;
+        if (groundAtOutput) {
+            ground.resize(static_cast<std::size_t>(w) * h * 4);
+            glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
+            glPixelStorei(GL_PACK_ALIGNMENT, 2);
+            glReadPixels(0, 0, w, h, GL_RGBA, GL_HALF_FLOAT, ground.data());
+        }
+        checkGlError("reading the depth and the contact matte");
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+
+        // Window depth d -> NDC z = 2d - 1 -> view depth B / (z + A) (camera.cpp's projection).
+        const Real A = (farZ + nearZ) / (nearZ - farZ), B = 2 * farZ * nearZ / (nearZ - farZ);
+        const Mat3 worldFromView = camera.viewFromWorld().inverse().block<3, 3>(0, 0);
+        const Real ty = std::tan(0.5 * camera.fovYDegrees * 3.14159265358979323846 / 180), tx = ty * w / h;
+        const bool transparent = settings.transparentBackground;
+        LinearImage out(w, h);
+        parallelFor(
+            static_cast<Index>(h),
+            [&](Index yi) {
+                const int y = static_cast<int>(yi), gy = h - 1 - y;  // GL rows are bottom-up
+                for (int x = 0; x < w; ++x) {
+                    const std::size_t o = static_cast<std::size_t>(y) * w + x;
+                    const std::uint16_t* src = readback.data() + (static_cast<std::size_t>(gy) * w + x) * 4;
+                    float* dst = out.rgba.data() + 4 * o;
+                    if (src[3] & 0x8000) {  // nothing drawn: the background
+                        for (int c = 0; c < 3; ++c) dst[c] = transparent ? 0.0f : static_cast<float>(settings.background[c]);
+                        dst[3] = transparent ? 0.0f : 1.0f;
+                    } else {
+                        const float a = static_cast<float>(halfToFloat(src[3]));
+                        for (int c = 0; c < 3; ++c)  // the resolve un-premultiplied a transparent frame
+                            dst[c] = static_cast<float>(halfToFloat(src[c])) * (transparent ? a : 1.0f);
+                        dst[3] = a;
+                    }
+                    float nearest = 1, matte = 0;
+                    for (int j = 0; j < factor; ++j)
+                        for (int i = 0; i < factor; ++i) {
+                            const std::size_t k = static_cast<std::size_t>(gy * factor + j) * sw + x * factor + i;
+                            nearest = std::min(nearest, depth[k]);
+                            matte += contact[k];
+                        }
+                    out.contact[o] = std::clamp(matte / static_cast<float>(factor * factor), 0.0f, 1.0f);
+                    if (nearest < 1) {
+                        out.depth[o] = static_cast<float>(B / (2 * Real(nearest) - 1 + A));
+                    } else if (!ground.empty() && halfToFloat(ground[(static_cast<std::size_t>(gy) * w + x) * 4 + 3]) > 0) {
+                        const Vec3 dir = worldFromView * Vec3((2 * (x + 0.5) / w - 1) * tx, (2 * (gy + 0.5) / h - 1) * ty, -1);
+                        const Real t = dir.y() != 0 ? (*groundAtOutput - camera.eye.y()) / dir.y() : -1;
+                        if (t > 0) out.depth[o] = static_cast<float>(t);  // dir has view depth 1
+                    }
+                }
+            },
+            16);
+        return out;
+    }
+
+    Image render(const FrameScene& scene, const Camera& camera, LinearImage* linear) {
+        if (linear && !settings.linearPlanes)
+            throw std::logic_error("Renderer::render: linear planes need RenderSettings::linearPlanes");
         auto t0 = std::chrono::steady_clock::now();
         context.makeCurrent();
         const int w = settings.width, h = settings.height, factor = settings.supersample;
@@ -976,8 +1058,11 @@ struct Renderer::Impl {
         }
         const auto tScene = std::chrono::steady_clock::now();
 
-        // 2. The scene at n x n resolution: premultiplied linear colour, alpha = coverage.
+        // 2. The scene at n x n resolution: premultiplied linear colour, alpha = coverage (and the
+        // contact matte, cleared to 0 with it).
         glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
+        const GLenum bothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+        glDrawBuffers(settings.linearPlanes ? 2 : 1, bothTargets);
         glViewport(0, 0, w * factor, h * factor);
         glClearColor(0, 0, 0, 0);
         glClearDepth(1.0);
@@ -1021,6 +1106,8 @@ struct Renderer::Impl {
                     setVec3(p, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));
                     setFloat(p, "uRampMin", m.ramp.min);
                     setFloat(p, "uRampGlow", std::clamp(m.ramp.glow, 0.0, 1.0));
+                    if (settings.linearPlanes)
+                        setInt(p, "uMatteAlongRamp", (m.ramp.low - m.colour).cwiseAbs().maxCoeff() < 1e-6 ? 1 : 0);
                     const Real span = m.ramp.max - m.ramp.min;
                     setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
                 }
@@ -1112,6 +1199,7 @@ struct Renderer::Impl {
         // stay visible), on-top ones without the depth test. Flat colour, opaque.
         buildOverlays(scene, clipFromWorld, w, h);
         if (!overlayDraws.empty()) {
+            glDrawBuffers(1, bothTargets);  // overlays leave the contact matte as it is
             glUseProgram(overlayProgram.id());
             glBindVertexArray(overlayVao);
             glEnable(GL_POLYGON_OFFSET_FILL);
@@ -1203,6 +1291,9 @@ struct Renderer::Impl {
                 }
             },
             16);
+        if (linear)
+            *linear = linearPlanes(camera, nearZ, farZ, drawGround && groundAtOutput ? std::optional<Real>(groundY)
+                                                                                      : std::nullopt);
         timings.readbackMs = msSince(t0);
         return image;
     }
@@ -1220,7 +1311,9 @@ Renderer::Renderer(const RenderSettings& settings) {
 
 Renderer::~Renderer() = default;
 
-Image Renderer::render(const FrameScene& scene, const Camera& camera) { return mImpl->render(scene, camera); }
+Image Renderer::render(const FrameScene& scene, const Camera& camera, LinearImage* linear) {
+    return mImpl->render(scene, camera, linear);
+}
 
 std::string Renderer::glRenderer() const { return mImpl->context.description(); }
 

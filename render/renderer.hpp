@@ -128,6 +128,9 @@ struct RenderSettings {
     /// Finish the GL work after each pass to time it (Timings::shadowMs...). Off in production
     /// renders: the waits stop llvmpipe overlapping passes.
     bool profilePasses = false;
+    /// Also keep what compositing needs (render(scene, camera, &linear)): the linear colour, each
+    /// pixel's depth and the contact highlight's matte. Off: the scene pass writes one target.
+    bool linearPlanes = false;
 
     std::vector<std::string> validate() const;  ///< problems by field name; empty when valid
 };
@@ -145,8 +148,12 @@ public:
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
-    /// Draws one frame. Deterministic: the same input gives the same pixels.
-    Image render(const FrameScene& scene, const Camera& camera);
+    /// Draws one frame. Deterministic: the same input gives the same pixels. With `linear` (needs
+    /// RenderSettings::linearPlanes) it also receives the frame for compositing: the resolve's
+    /// linear colour with premultiplied alpha (alpha 1 everywhere unless the background is
+    /// transparent), the depth of the nearest of each pixel's samples (the ground plane's too) and
+    /// the share of the pixel's samples on a highlighted surface (base/image.hpp, LinearImage).
+    Image render(const FrameScene& scene, const Camera& camera, LinearImage* linear = nullptr);
 
     /// GL_RENDERER and GL_VERSION, for logs and PNG provenance.
     std::string glRenderer() const;

@@ -1,16 +1,16 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages dgv needs, only those that are missing (a second run does
 # nothing). Usage: scripts/install-deps.sh [--tests] [--fuzz] [--farm]
-#   --tests  also what the test suite needs (assimp's test models, OpenVDB's tools, Blender and the
-#            NumPy its glTF importer needs, for the mesh cache's import test)
+#   --tests  also what the test suite needs (assimp's test models, OpenVDB's and OpenEXR's tools,
+#            Blender and the NumPy its glTF importer needs, for the mesh cache's import test)
 #   --fuzz   also clang and its runtime with libFuzzer (scripts/fuzz.sh)
 #   --farm   also Slurm and munge, for the one-node cluster of scripts/farm-test.sh
 set -euo pipefail
 
 build_pkgs=(build-essential cmake ninja-build pkg-config
   libeigen3-dev libtbb-dev libassimp-dev libosmesa6-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libpng-dev
-  libopenvdb-dev libboost-iostreams-dev nlohmann-json3-dev libcli11-dev catch2)
-test_pkgs=(assimp-testmodels libopenvdb-tools blender python3-numpy)
+  libopenexr-dev libopenvdb-dev libboost-iostreams-dev nlohmann-json3-dev libcli11-dev catch2)
+test_pkgs=(assimp-testmodels libopenvdb-tools openexr blender python3-numpy)
 fuzz_pkgs=(clang libclang-rt-14-dev)
 farm_pkgs=(slurm-wlm munge)
 

@@ -18,9 +18,18 @@ uniform float uDecalGlow;
 uniform vec4 uDecalRect;
 uniform int uHasDecal;
 
+#ifdef DGV_CONTACT_OUT
+// RenderSettings::linearPlanes: the ground shows no contact (where it hides a mesh, neither).
+layout(location = 0) out vec4 fragColour;
+layout(location = 1) out vec4 fragContact;
+#else
 out vec4 fragColour;
+#endif
 
 void main() {
+#ifdef DGV_CONTACT_OUT
+    fragContact = vec4(0.0);
+#endif
     float r = length(vPosition.xz - uGroundCentre.xz);
     float fade = 1.0 - smoothstep(uFadeInner, uFadeOuter, r);
     if (fade <= 0.0) {

@@ -20,9 +20,20 @@ uniform vec3 uRampHigh;
 uniform float uRampMin;
 uniform float uRampInvSpan;
 uniform float uRampGlow;
+// The contact matte (DGV_CONTACT_OUT) where the scalar is > 0: 1, or the ramp's position where
+// the ramp starts at the surface's own colour (a footprint, a fading contact), so the matte
+// follows what shows.
+uniform int uMatteAlongRamp;
 uniform float uOpacity;  // 1: opaque; below, drawn blended after the opaque meshes (DrawMesh::opacity)
 
+#ifdef DGV_CONTACT_OUT
+// RenderSettings::linearPlanes: the contact matte beside the colour (R: highlighted, times the
+// opacity, blended as the colour is).
+layout(location = 0) out vec4 fragColour;
+layout(location = 1) out vec4 fragContact;
+#else
 out vec4 fragColour;
+#endif
 
 void main() {
     float len = length(vNormal);
@@ -32,9 +43,11 @@ void main() {
 
     vec3 albedo = uAlbedo;
     vec3 emitted = vec3(0.0);
+    float highlighted = 0.0;
 #if DGV_SCALAR
     if (vScalar > 0.0) {
         float t = clamp((vScalar - uRampMin) * uRampInvSpan, 0.0, 1.0);
+        highlighted = uMatteAlongRamp != 0 ? t : 1.0;
         albedo = mix(uRampLow, uRampHigh, t);
         emitted = (uRampGlow * sqrt(t)) * uRampHigh;  // grows with the ramp: no step where it starts
     }
@@ -50,4 +63,7 @@ void main() {
                 + specular(n, v, uRimDir, uRimColour, 24.0)
                 + emitted;
     fragColour = vec4(colour * uOpacity, uOpacity);  // premultiplied
+#ifdef DGV_CONTACT_OUT
+    fragContact = vec4(highlighted * uOpacity, 0.0, 0.0, uOpacity);
+#endif
 }

@@ -47,6 +47,7 @@ struct Shot {
     // From the scene file as it is now (loadShot): what a complete frame of it looks like.
     int width = 0, height = 0;
     std::string key;  ///< the scene's frame key (io/state_file.hpp)
+    std::string extension = "png";  ///< the frames' files: png or exr (render.format)
 
     int tasks() const { return (last - first + chunk) / chunk; }
     int taskFirst(int t) const { return first + t * chunk; }
@@ -211,8 +212,9 @@ std::string selfPath() {
 std::vector<char> framesDone(const Shot& s) {
     std::vector<char> done;
     for (int f = s.first; f <= s.last; ++f)
-        done.push_back(frameIsComplete(framePath(s.dir, s.name, f), f, s.width, s.height, s.key, nullptr, true) ? 1
-                                                                                                                : 0);
+        done.push_back(
+            frameIsComplete(framePath(s.dir, s.name, f, s.extension), f, s.width, s.height, s.key, nullptr, true) ? 1
+                                                                                                                   : 0);
     return done;
 }
 
@@ -325,6 +327,7 @@ Shot loadShot(const std::string& dir) {
     s.width = scene.render.width;
     s.height = scene.render.height;
     s.key = sceneFrameKey(scene);
+    s.extension = scene.render.format == RenderDesc::Format::Exr ? "exr" : "png";
     return s;
 }
 

@@ -11,6 +11,7 @@
 #include "base/progress.hpp"
 #include "geom/lattice.hpp"
 #include "io/atomic_file.hpp"
+#include "io/exr.hpp"
 #include "io/png.hpp"
 #include "io/scene_json.hpp"
 #include "io/state_file.hpp"
@@ -180,6 +181,17 @@ int runRender(const RenderOptions& options) {
         throw InputError("--resolution", "",
                          "width and height times the scene's supersample (" + std::to_string(scene.render.supersample) +
                              ") must stay within 16384");
+    if (options.format == "exr") scene.render.format = RenderDesc::Format::Exr;
+    if (options.format == "png") scene.render.format = RenderDesc::Format::Png;
+    const bool exr = scene.render.format == RenderDesc::Format::Exr;
+    const std::string extension = exr ? "exr" : "png";
+    if (options.movie && exr)
+        throw InputError("--movie", "",
+                         "the preview movie is made from PNG frames, and this render writes EXR: render the PNG "
+                         "frames for the movie (--format png) in another folder");
+    if (!scene.curves.empty() && exr)
+        throw InputError(options.format.empty() ? scene.path : "--format", options.format.empty() ? "render.format" : "",
+                         "'" + scene.name + "' is a curve scene (the GLN figures), drawn as PNG plots: drop exr");
     if (options.movie && !onPath("ffmpeg"))
         throw InputError("--movie", "",
                          "ffmpeg is not on PATH: install it (Debian: apt-get install ffmpeg) or drop --movie");
@@ -243,12 +255,12 @@ int runRender(const RenderOptions& options) {
             std::fprintf(stderr, "dgv: interrupted before frame %d; the frames written are complete\n", frame);
             return kExitInterrupted;
         }
-        const std::string onDisk = framePath(scene.output.dir, scene.name, frame);
+        const std::string onDisk = framePath(scene.output.dir, scene.name, frame, extension);
         if (Image done; options.resume && frameIsComplete(onDisk, frame, rs.width, rs.height, frameKey,
                                                           options.contactSheet ? &done : nullptr)) {
             writer.finish();  // keeps the progress lines in frame order
             if (!inFlight.empty()) progress.step(std::exchange(inFlight, std::string()));
-            progress.step(framePath(scene.output.dir, scene.name, frame) + " (complete, kept)");
+            progress.step(onDisk + " (complete, kept)");
             if (options.contactSheet) {
                 thumbs.push_back(thumbnail(done, 320));
                 stampFrameNumber(thumbs.back(), frame);
@@ -269,8 +281,9 @@ int runRender(const RenderOptions& options) {
                                  : ViewBody{};
         }
         const FrameScene& frameScene = view.update(viewBodies, camera);
-        Image image = renderer.render(frameScene, camera);
-        const std::string path = framePath(scene.output.dir, scene.name, frame);
+        LinearImage linear;
+        Image image = renderer.render(frameScene, camera, exr ? &linear : nullptr);
+        const std::string& path = onDisk;
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
                     {"Source", glName},
                     {"dgv:scene", fs::path(scene.path).filename().string()},
@@ -280,7 +293,10 @@ int runRender(const RenderOptions& options) {
             thumbs.push_back(thumbnail(image, 320));
             stampFrameNumber(thumbs.back(), frame);
         }
-        writer.submit(path, std::move(image), png);  // waits for the previous frame's write
+        if (exr)
+            writeExr(path, linear, png.text);  // here: the PNG queue stays idle
+        else
+            writer.submit(path, std::move(image), png);  // waits for the previous frame's write
         if (!inFlight.empty()) progress.step(inFlight);
         inFlight = path;
     }
@@ -332,7 +348,7 @@ int runRender(const RenderOptions& options) {
                                     "settings, and were replaced)"
                               : std::string()));
     logInfo("wrote " + std::to_string(last - first + 1) + " frames: " + scene.output.dir + "/" + scene.name +
-            ".####.png");
+            ".####." + extension);
     return kExitOk;
 }
 

@@ -85,6 +85,7 @@ RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend) {
     rs.transparentBackground = desc.transparent;
     rs.creaseDegrees = desc.creaseDegrees;
     rs.shadowSoftness = desc.shadowSoftness;
+    rs.linearPlanes = desc.format == RenderDesc::Format::Exr;
     rs.backend = backend;
     return rs;
 }

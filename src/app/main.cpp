@@ -226,7 +226,7 @@ int main(int argc, char** argv) {
     cli.fallthrough();
 
     app::RenderOptions render;
-    auto* cRender = cli.add_subcommand("render", "Render a scene to a PNG sequence <out>/<name>.####.png");
+    auto* cRender = cli.add_subcommand("render", "Render a scene to an image sequence <out>/<name>.####.png (or .exr)");
     cRender->add_option("scene", render.scene, "Scene file (JSON, see scenes/README.md)")->required();
     cRender->add_option("--frames", render.frames, "Frame range A-B (or one frame N), within the scene's range");
     cRender->add_option("--out", render.outDir, "Output folder (default: the scene's output.dir)");
@@ -240,6 +240,11 @@ int main(int argc, char** argv) {
     cRender->add_option("--resolution", render.resolution, "Image size WxH, e.g. 1920x1080 (overrides the scene)");
     cRender->add_option("--gl-backend", render.glBackend, "OpenGL context: auto (OSMesa, else EGL), egl or osmesa")
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}));
+    cRender
+        ->add_option("--format", render.format,
+                     "Frame files: png (sRGB) or exr (linear half float RGBA with Z and contact channels, for "
+                     "compositing); overrides the scene's render.format")
+        ->check(CLI::IsMember({"png", "exr"}));
     cRender->add_option("--solver", render.solver, "Every object's material.solver: chain or one (docs/math.md)")
         ->check(CLI::IsMember({"chain", "one"}));
     cRender->add_flag("--contact-sheet", render.contactSheet, "Also write <name>.contact.png, the frames in a grid");

@@ -3,6 +3,7 @@
 #include "base/errors.hpp"
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"
+#include "io/exr.hpp"
 #include "io/png.hpp"
 
 #include <unistd.h>
@@ -41,10 +42,10 @@ std::string shellQuote(const std::string& s) {
     return q + "'";
 }
 
-std::string framePath(const std::string& dir, const std::string& name, int frame) {
+std::string framePath(const std::string& dir, const std::string& name, int frame, const std::string& extension) {
     char num[32];
     std::snprintf(num, sizeof num, "%04d", frame);
-    return (fs::path(dir) / (name + "." + num + ".png")).string();
+    return (fs::path(dir) / (name + "." + num + "." + extension)).string();
 }
 
 void checkOutputFolder(const std::string& dir, const std::string& input, const std::string& where) {
@@ -77,7 +78,13 @@ bool frameIsComplete(const std::string& path, int frame, int width, int height, 
     std::vector<std::pair<std::string, std::string>> text;
     Image decoded;
     try {
-        decoded = readPng(path, &text);  // the whole file: image data, CRCs, IEND
+        if (fs::path(path).extension() == ".exr") {
+            // The seal first: OpenEXR's reader is not shown damaged bytes.
+            if (!exrFileProblem(path).empty()) return false;
+            decoded = encodedImageOf(readExr(path, &text));
+        } else {
+            decoded = readPng(path, &text);  // the whole file: image data, CRCs, IEND
+        }
     } catch (const InputError&) {
         return false;
     }

@@ -12,8 +12,9 @@ namespace dgv::app {
 bool onPath(const std::string& program);
 /// `s` in single quotes for a POSIX shell (a ' inside becomes '\'').
 std::string shellQuote(const std::string& s);
-/// <dir>/<name>.####.png: frame `frame`'s file.
-std::string framePath(const std::string& dir, const std::string& name, int frame);
+/// <dir>/<name>.####.<extension>: frame `frame`'s file.
+std::string framePath(const std::string& dir, const std::string& name, int frame,
+                      const std::string& extension = "png");
 
 /// InputError (`input`: `where`: ...) when `dir`, or the nearest part of it that exists, is not
 /// a folder (e.g. --out names a file): bad input, found before any work is done.
@@ -25,7 +26,8 @@ void checkOutputFolder(const std::string& dir, const std::string& input, const s
 void removeStaleOutputTemporaries(const std::string& dir);
 
 /// --resume: true when `path` holds a complete frame `frame` of `width` x `height` of this
-/// version of the scene: a PNG that decodes in full (a truncated or corrupt file does not), whose
+/// version of the scene: a PNG that decodes in full (a truncated or corrupt file does not), or an
+/// EXR (by its extension) whose seal holds and whose every scanline reads (io/exr.hpp), whose
 /// dgv:frame text is `frame` and whose dgv:key text is `key` (io/state_file.hpp, sceneFrameKey:
 /// a frame of an earlier version of the scene, or of another bit depth, is not kept). A file that
 /// exists but fails any of this is not trusted: the frame is rendered again. `image`, when

@@ -754,6 +754,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         d.ground = g.boolean("ground", d.ground);
         d.groundGiven = g.has("ground");
         d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
+        d.format = g.choiceOf("format", d.format, {{"png", RenderDesc::Format::Png}, {"exr", RenderDesc::Format::Exr}});
+        if (d.format == RenderDesc::Format::Exr && g.has("bit_depth"))
+            g.fail("bit_depth", "applies to PNG frames (EXR frames are half float)");
         d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
         d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);
         d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);

@@ -227,6 +227,9 @@ struct RenderDesc {
     bool ground = true;
     bool groundGiven = false;  ///< the scene sets render.ground (view/frame_view: the floor of a moving shot)
     int bitDepth = 8;
+    /// The frames' files: PNG (sRGB, bitDepth) or OpenEXR (linear half float with premultiplied
+    /// alpha, and the depth Z and the contact matte as extra channels; io/exr.hpp).
+    enum class Format { Png, Exr } format = Format::Png;
     Real creaseDegrees = 40;   ///< normals split along edges sharper than this (180: smooth)
     Real shadowSoftness = 3;   ///< the key light's angular radius, degrees (0: hard shadows)
     Real colliderOpacity = 1;  ///< colliders drawn see-through below 1 (an x-ray view of the contact behind them)
@@ -258,7 +261,7 @@ struct RenderDesc {
 };
 
 struct OutputDesc {
-    std::string dir;          ///< absolute; default <cwd>/out/<scene name>; frames <dir>/<name>.####.png
+    std::string dir;          ///< absolute; default <cwd>/out/<scene name>; frames <dir>/<name>.####.png (or .exr)
     bool vdb = false;         ///< <dir>/vdb/<name>.####.vdb (docs/vdb.md)
     Real vdbVoxelSize = 0;    ///< world grids' voxel size; 0: the objects' (smallest) voxel size
     bool vdbHalf = false;     ///< density, vel, contact as 16-bit floats

@@ -17,7 +17,7 @@ set(allowed_app      "base;geom;solve;deform;dynamics;collide;sim;io;render;view
 set(core_modules "base;geom;solve;deform;dynamics;collide;sim;io;render;view;bench;app")
 # Third-party headers that may never appear in a dgv header (H7). Eigen and TBB are the
 # vocabulary of base/ and allowed everywhere.
-set(forbidden_in_headers "assimp/;openvdb/;png.h;GL/;EGL/;nlohmann/;CLI/")
+set(forbidden_in_headers "assimp/;openvdb/;png.h;Imf;Iex;Imath/;OpenEXR/;GL/;EGL/;nlohmann/;CLI/")
 
 set(failures "")
 file(GLOB_RECURSE files RELATIVE "${ROOT}" "${ROOT}/src/*.hpp" "${ROOT}/src/*.cpp"
