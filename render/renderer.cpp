@@ -249,6 +249,24 @@ std::vector<std::string> RenderSettings::validate() const {
         problems.push_back("crease_degrees: expected 0..180, got " + std::to_string(creaseDegrees));
     if (!(shadowSoftness >= 0 && shadowSoftness <= 15))
         problems.push_back("shadow_softness: expected 0..15 degrees, got " + std::to_string(shadowSoftness));
+    if (lights.size() > static_cast<std::size_t>(kMaxLights))
+        problems.push_back("lights: at most " + std::to_string(kMaxLights) + ", got " + std::to_string(lights.size()));
+    int shadowing = 0;
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+        const Light& l = lights[i];
+        const std::string name = "lights[" + std::to_string(i) + "]";
+        if (!l.vector.allFinite() || (l.type == Light::Type::Directional && !(l.vector.norm() > 0)))
+            problems.push_back(name + ": a directional light needs a nonzero, finite direction");
+        if (!l.colour.allFinite() || l.colour.minCoeff() < 0)
+            problems.push_back(name + ": colour times intensity must be finite and not negative");
+        if (!(l.shininess >= 0 && l.shininess <= 1e4)) problems.push_back(name + ": shininess must be 0..10000");
+        if (l.shadows && l.type != Light::Type::Directional)
+            problems.push_back(name + ": only a directional light casts shadows");
+        else if (l.shadows && !(l.vector.y() > 0))  // the floor's shadow needs a light above it
+            problems.push_back(name + ": a light that casts shadows must shine from above (direction y > 0)");
+        shadowing += l.shadows ? 1 : 0;
+    }
+    if (shadowing > 1) problems.push_back("lights: one light casts shadows, " + std::to_string(shadowing) + " ask to");
     for (int i = 0; i < 3; ++i) {
         if (!(background[i] >= 0 && background[i] <= 1)) {
             problems.push_back("background: expected linear RGB components in [0,1]");
@@ -256,6 +274,22 @@ std::vector<std::string> RenderSettings::validate() const {
         }
     }
     return problems;
+}
+
+std::vector<Light> defaultLightRig() {
+    auto light = [](Vec3 towards, Vec3 colour, bool shadows, Real shininess, bool floor) {
+        Light l;
+        l.vector = towards;
+        l.colour = colour;
+        l.cameraRelative = true;
+        l.shadows = shadows;
+        l.shininess = shininess;
+        l.floor = floor;
+        return l;
+    };
+    return {light(Vec3(-0.55, 1.0, 0.65), Vec3(1.00, 0.96, 0.90) * 0.95, true, 48, true),
+            light(Vec3(0.9, 0.25, 0.6), Vec3(0.80, 0.88, 1.00) * 0.22, false, 0, true),
+            light(Vec3(0.35, 0.7, -1.0), Vec3(1.0, 1.0, 1.0) * 0.7, false, 24, false)};
 }
 
 std::string findShaderDir() {
@@ -339,7 +373,9 @@ struct Renderer::Impl {
         const std::string groundSoft =
             soft + (softShadows && hasGlExtension("GL_ARB_derivative_control") ? "#define DGV_QUAD_SEARCH 1\n" : "");
         const std::string pcf = soft + (quadPcf ? "#define DGV_QUAD_PCF 1\n" : "");
-        const std::string contactOut = s.linearPlanes ? "#define DGV_CONTACT_OUT 1\n" : "";
+        // The default rig has its own unrolled sums (shaders/mesh.frag, DGV_STUDIO_RIG).
+        const std::string contactOut = std::string(s.linearPlanes ? "#define DGV_CONTACT_OUT 1\n" : "") +
+                                       (s.lights.empty() ? "#define DGV_STUDIO_RIG 1\n" : "");
         meshProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl", pcf + contactOut);
         meshPlainProgram = ShaderProgram(dir, "mesh.vert", "mesh.frag", "lighting.glsl",
                                          pcf + contactOut + "#define DGV_SCALAR 0\n");
@@ -745,7 +781,14 @@ struct Renderer::Impl {
 
     /// Sets the lights and shadow uniforms shared by mesh.frag and ground.frag (lighting.glsl).
     struct Lights {
-        Vec3 keyDir, fillDir, rimDir;
+        /// In world space: direction (w = 0) or position (w = 1), colour, and the rig's light
+        /// whose shadow map keyVisibility reads (-1: none), keyDir its direction.
+        std::vector<Eigen::Vector4d> vectors;
+        std::vector<Vec3> colours;
+        std::vector<Real> shininess;
+        std::vector<int> floor;
+        int shadowLight = -1;
+        Vec3 keyDir = Vec3::UnitY();
         Mat4 shadowFromWorld = Mat4::Identity();
         Real shadowRadius = 0, normalOffset = 0;
         // Soft shadows (lighting.glsl): filter radius per unit of map depth, its largest value
@@ -755,12 +798,21 @@ struct Renderer::Impl {
     };
 
     void setLighting(const ShaderProgram& p, const Lights& l) {
-        setVec3(p, "uKeyDir", l.keyDir);
-        setVec3(p, "uKeyColour", Vec3(1.00, 0.96, 0.90) * 0.95);
-        setVec3(p, "uFillDir", l.fillDir);
-        setVec3(p, "uFillColour", Vec3(0.80, 0.88, 1.00) * 0.22);
-        setVec3(p, "uRimDir", l.rimDir);
-        setVec3(p, "uRimColour", Vec3(1.0, 1.0, 1.0) * 0.7);
+        const int n = static_cast<int>(l.vectors.size());
+        std::vector<float> vectors, colours, shininess;
+        for (int i = 0; i < n; ++i) {
+            for (int c = 0; c < 4; ++c) vectors.push_back(static_cast<float>(l.vectors[static_cast<std::size_t>(i)][c]));
+            for (int c = 0; c < 3; ++c) colours.push_back(static_cast<float>(l.colours[static_cast<std::size_t>(i)][c]));
+            shininess.push_back(static_cast<float>(l.shininess[static_cast<std::size_t>(i)]));
+        }
+        setInt(p, "uLightCount", n);
+        if (n > 0) {
+            glUniform4fv(p.uniform("uLightVector"), n, vectors.data());
+            glUniform3fv(p.uniform("uLightColour"), n, colours.data());
+            glUniform1fv(p.uniform("uLightShininess"), n, shininess.data());
+            glUniform1iv(p.uniform("uLightFloor"), n, l.floor.data());
+        }
+        setInt(p, "uShadowLight", l.shadowLight);
         setVec3(p, "uSkyColour", Vec3(0.80, 0.87, 1.00) * 0.20);
         setVec3(p, "uBounceColour", Vec3(1.00, 0.95, 0.90) * 0.06);
         setMat4(p, "uShadowFromWorld", l.shadowFromWorld);
@@ -843,6 +895,38 @@ struct Renderer::Impl {
     /// `readback` (bottom row first) and the scene pass's depth and contact matte. groundAtOutput:
     /// the height of a ground drawn at output size, outside the depth buffer; its depth is the
     /// view ray's, where the ground shows.
+    /// The rig (RenderSettings::lights, else the default) in world space for this camera: a
+    /// camera-relative light turns with the camera's azimuth (a classic turntable: the object
+    /// turns under studio lights), level with the horizon.
+    Lights worldLights(const Camera& camera) const {
+        const Vec3 forward = (camera.target - camera.eye).normalized();
+        Vec3 backH(-forward.x(), 0, -forward.z());
+        if (backH.norm() < 1e-9) backH = Vec3(0, 0, 1);
+        backH.normalize();
+        const Vec3 rightH = Vec3::UnitY().cross(backH).normalized();
+        Lights out;
+        const std::vector<Light> rig = settings.lights.empty() ? defaultLightRig() : settings.lights;
+        for (const Light& l : rig) {
+            const Vec3& v = l.vector;
+            const Vec3 turned = v.x() * rightH + v.y() * Vec3::UnitY() + v.z() * backH;
+            Eigen::Vector4d world;
+            if (l.type == Light::Type::Directional) {
+                world << (l.cameraRelative ? turned : v).normalized(), 0;
+            } else {
+                world << (l.cameraRelative ? Vec3(camera.eye + turned) : v), 1;
+            }
+            if (l.shadows) {
+                out.shadowLight = static_cast<int>(out.vectors.size());
+                out.keyDir = world.head<3>();
+            }
+            out.vectors.push_back(world);
+            out.colours.push_back(l.colour);
+            out.shininess.push_back(l.shininess);
+            out.floor.push_back(l.floor ? 1 : 0);
+        }
+        return out;
+    }
+
     LinearImage linearPlanes(const Camera& camera, Real nearZ, Real farZ, std::optional<Real> groundAtOutput) {
         const int w = settings.width, h = settings.height, factor = settings.supersample;
         const int sw = w * factor, sh = h * factor;
@@ -930,17 +1014,7 @@ struct Renderer::Impl {
         Real radius = haveGeometry ? 0.5 * bounds.size().norm() : 1.0;
         if (!(radius > 0)) radius = 1e-3;
 
-        // Lights fixed relative to the camera's azimuth (a classic turntable: the object turns
-        // under studio lights): key above front-left, fill low front-right, rim behind.
-        const Vec3 forward = (camera.target - camera.eye).normalized();
-        Vec3 backH(-forward.x(), 0, -forward.z());
-        if (backH.norm() < 1e-9) backH = Vec3(0, 0, 1);
-        backH.normalize();
-        const Vec3 rightH = Vec3::UnitY().cross(backH).normalized();
-        Lights lights;
-        lights.keyDir = (-0.55 * rightH + 1.0 * Vec3::UnitY() + 0.65 * backH).normalized();
-        lights.fillDir = (0.9 * rightH + 0.25 * Vec3::UnitY() + 0.6 * backH).normalized();
-        lights.rimDir = (0.35 * rightH + 0.7 * Vec3::UnitY() - 1.0 * backH).normalized();
+        Lights lights = worldLights(camera);
 
         // Ground: a quad at the given height, else under the lowest point, fading out radially.
         const Real groundY = scene.groundHeight ? *scene.groundHeight : haveGeometry ? bounds.min.y() : 0.0;
@@ -1008,7 +1082,7 @@ struct Renderer::Impl {
         glDisable(GL_SCISSOR_TEST);
 
         // 1. Shadow map from the key light: orthographic over the bounding sphere.
-        if (haveGeometry) {
+        if (haveGeometry && lights.shadowLight >= 0) {
             Camera light;
             light.eye = centre + 2.0 * radius * lights.keyDir;
             light.target = centre;
@@ -1019,7 +1093,7 @@ struct Renderer::Impl {
             bias(3, 3) = 1;
             bias.block<3, 1>(0, 3) = Vec3::Constant(0.5);
             lights.shadowFromWorld = bias * lightClipFromWorld;
-            lights.shadows = true;
+            lights.shadows = lights.shadowLight >= 0;
             const Real texelWorld = 2.0 * radius / kShadowMapSize;
             lights.shadowRadius = 1.0 / kShadowMapSize;  // 4 taps at +-1 texel: ~4-texel penumbra
             lights.normalOffset = 1.5 * texelWorld;

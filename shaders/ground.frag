@@ -1,7 +1,7 @@
 #version 330 core
 // (lighting.glsl is inserted here)
 // A neutral grey floor that fades out radially into the background (a studio "infinity"
-// floor), lit by the key light with its shadow. In catcher mode (transparent background) it
+// floor), lit by the lights that light it (RenderSettings::lights), with the shadow map's shadow. In catcher mode (transparent background) it
 // keeps only the shadow: black with alpha = shadow strength, for compositing.
 in vec3 vPosition;
 
@@ -43,9 +43,20 @@ void main() {
         fragColour = vec4(0.0, 0.0, 0.0, a);
         return;
     }
-    vec3 irradiance = uKeyColour * (max(uKeyDir.y, 0.0) * key)
-                    + uFillColour * max(uFillDir.y, 0.0)
-                    + hemisphere(n);
+#if DGV_STUDIO_RIG
+    vec3 irradiance = uLightColour[0] * (max(uLightVector[0].y, 0.0) * key)
+                    + uLightColour[1] * max(uLightVector[1].y, 0.0)
+                    + hemisphere(n);  // the rim (light 2) leaves the floor alone
+#else
+    vec3 irradiance = vec3(0.0);
+    for (int i = 0; i < uLightCount; ++i) {
+        if (uLightFloor[i] == 0) continue;
+        vec3 l, c;
+        lightAt(i, vPosition, l, c);
+        irradiance += c * (max(l.y, 0.0) * (i == uShadowLight ? key : 1.0));
+    }
+    irradiance += hemisphere(n);
+#endif
     vec3 albedo = uGroundAlbedo;
     vec3 emitted = vec3(0.0);
     if (uHasDecal != 0) {

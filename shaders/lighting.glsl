@@ -27,12 +27,17 @@
 #extension GL_ARB_texture_gather : require
 #endif
 
-uniform vec3 uKeyDir;
-uniform vec3 uKeyColour;
-uniform vec3 uFillDir;
-uniform vec3 uFillColour;
-uniform vec3 uRimDir;
-uniform vec3 uRimColour;
+// The lights (RenderSettings::lights, in world space): each a direction towards it (w = 0) or a
+// position (w = 1: its colour falls off as 1/d²), a colour with its intensity, a specular
+// exponent (0: none) and whether it lights the floor. uShadowLight: the light whose shadow map
+// keyVisibility reads (-1: none).
+#define DGV_MAX_LIGHTS 8
+uniform int uLightCount;
+uniform vec4 uLightVector[DGV_MAX_LIGHTS];
+uniform vec3 uLightColour[DGV_MAX_LIGHTS];
+uniform float uLightShininess[DGV_MAX_LIGHTS];
+uniform int uLightFloor[DGV_MAX_LIGHTS];
+uniform int uShadowLight;
 uniform vec3 uSkyColour;     // hemisphere ambient, from above
 uniform vec3 uBounceColour;  // hemisphere ambient, from below
 
@@ -234,6 +239,20 @@ float keyVisibility(vec3 p, vec3 n) {
 #endif
     return hard;
 #endif
+}
+
+// Light i as seen from p: the unit direction towards it, and its colour there.
+void lightAt(int i, vec3 p, out vec3 l, out vec3 c) {
+    vec4 v = uLightVector[i];
+    c = uLightColour[i];
+    if (v.w == 0.0) {
+        l = v.xyz;
+        return;
+    }
+    vec3 d = v.xyz - p;
+    float r2 = max(dot(d, d), 1e-12);
+    l = d * inversesqrt(r2);
+    c /= r2;
 }
 
 vec3 hemisphere(vec3 n) { return mix(uBounceColour, uSkyColour, 0.5 + 0.5 * n.y); }

@@ -53,15 +53,37 @@ void main() {
     }
 #endif
 
+    // Diffuse from every light and the sky, then each light's highlight: the sums in this order.
     float key = keyVisibility(vPosition, n);
-    vec3 irradiance = uKeyColour * (max(dot(n, uKeyDir), 0.0) * key)
-                    + uFillColour * max(dot(n, uFillDir), 0.0)
-                    + uRimColour * max(dot(n, uRimDir), 0.0)
+#if DGV_STUDIO_RIG
+    // defaultLightRig() (key 0 with the shadows, fill 1, rim 2), unrolled: the rig's own sums,
+    // bit for bit the frames it has always made.
+    vec3 keyDir = uLightVector[0].xyz, fillDir = uLightVector[1].xyz, rimDir = uLightVector[2].xyz;
+    vec3 irradiance = uLightColour[0] * (max(dot(n, keyDir), 0.0) * key)
+                    + uLightColour[1] * max(dot(n, fillDir), 0.0)
+                    + uLightColour[2] * max(dot(n, rimDir), 0.0)
                     + hemisphere(n);
     vec3 colour = albedo * irradiance
-                + specular(n, v, uKeyDir, uKeyColour, 48.0) * key
-                + specular(n, v, uRimDir, uRimColour, 24.0)
+                + specular(n, v, keyDir, uLightColour[0], uLightShininess[0]) * key
+                + specular(n, v, rimDir, uLightColour[2], uLightShininess[2])
                 + emitted;
+#else
+    vec3 irradiance = vec3(0.0);
+    for (int i = 0; i < uLightCount; ++i) {
+        vec3 l, c;
+        lightAt(i, vPosition, l, c);
+        irradiance += c * (max(dot(n, l), 0.0) * (i == uShadowLight ? key : 1.0));
+    }
+    irradiance += hemisphere(n);
+    vec3 colour = albedo * irradiance;
+    for (int i = 0; i < uLightCount; ++i) {
+        if (uLightShininess[i] <= 0.0) continue;
+        vec3 l, c;
+        lightAt(i, vPosition, l, c);
+        colour += specular(n, v, l, c, uLightShininess[i]) * (i == uShadowLight ? key : 1.0);
+    }
+    colour += emitted;
+#endif
     fragColour = vec4(colour * uOpacity, uOpacity);  // premultiplied
 #ifdef DGV_CONTACT_OUT
     fragContact = vec4(highlighted * uOpacity, 0.0, 0.0, uOpacity);

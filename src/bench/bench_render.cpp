@@ -160,7 +160,7 @@ uniform vec3 uAlbedo;
 out vec4 fragColour;
 void main() {
     vec3 n = normalize(vNormal);
-    fragColour = vec4(uAlbedo * (0.1 + max(dot(n, uKeyDir), 0.0)), 1.0);
+    fragColour = vec4(uAlbedo * (0.1 + max(dot(n, uLightVector[0].xyz), 0.0)), 1.0);  // the key
 }
 )";
         RenderSettings plain = settings;

@@ -357,6 +357,38 @@ void limitNameLength(const ObjectReader& r, const std::string& name, const char*
                            std::to_string(name.size()));
 }
 
+/// render.lights: the rig, replacing the studio rig (docs/rendering.md, "Lights"). The first
+/// directional light casts the shadows unless it says otherwise; one light at most does.
+void readLights(ObjectReader& g, std::vector<LightDesc>& lights) {
+    int shadowing = -1;
+    g.array("lights", [&](ObjectReader& l, int i) {
+        if (i >= 8) l.fail("", "a rig holds at most 8 lights");
+        LightDesc d;
+        d.type = l.choiceOf("type", LightDesc::Type::Directional,
+                            {{"directional", LightDesc::Type::Directional}, {"point", LightDesc::Type::Point}});
+        const bool directional = d.type == LightDesc::Type::Directional;
+        if (directional && l.has("position")) l.fail("position", "a directional light has a 'direction', not a position");
+        if (!directional && l.has("direction")) l.fail("direction", "a point light has a 'position', not a direction");
+        const char* where = directional ? "direction" : "position";
+        if (!l.has(where)) l.fail(where, directional ? "missing: the direction towards the light" : "missing");
+        d.vector = l.vec3(where, d.vector);
+        if (directional && !(d.vector.norm() > 0)) l.fail("direction", "must not be [0, 0, 0]");
+        d.colour = l.color("color", Vec3::Ones()) * l.number("intensity", 1, 0, 1e9);
+        d.cameraRelative = l.choice("attach", "world", {"world", "camera"}) == "camera";
+        d.shadows = l.boolean("shadows", directional && shadowing < 0);
+        if (d.shadows && !directional) l.fail("shadows", "only a directional light casts shadows");
+        if (d.shadows && shadowing >= 0)
+            l.fail("shadows", "one light casts shadows, and lights[" + std::to_string(shadowing) + "] already does");
+        if (d.shadows && !(d.vector.y() > 0))
+            l.fail("shadows", "a light that casts shadows must shine from above (direction y > 0)");
+        if (d.shadows) shadowing = i;
+        d.shininess = l.number("specular", d.shininess, 0, 1e4);
+        d.floor = l.boolean("floor", d.floor);
+        lights.push_back(d);
+    });
+    if (g.has("lights") && lights.empty()) g.fail("lights", "expected at least one light (leave it out for the studio rig)");
+}
+
 }  // namespace
 
 SceneDesc parseScene(const std::string& text, const fs::path& path) {
@@ -758,6 +790,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         if (d.format == RenderDesc::Format::Exr && g.has("bit_depth"))
             g.fail("bit_depth", "applies to PNG frames (EXR frames are half float)");
         d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
+        readLights(g, d.lights);
         d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);
         d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);
         if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");

@@ -383,3 +383,42 @@ TEST_CASE("scene_json: a body without material settings is jelly, and the preset
     CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}, "material": {"wobble_hz": 0}}]})"),
                Catch::Contains("objects[0].material.wobble_hz"));
 }
+
+TEST_CASE("scene_json: render.lights reads a rig, the first directional light casting the shadows", "[io][scene][lights]") {
+    const SceneDesc s = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}],
+      "render": {"lights": [
+        {"direction": [1, 2, 0], "color": [1, 1, 1], "intensity": 2},
+        {"type": "point", "position": [0, 3, 1], "attach": "camera", "specular": 0, "floor": false},
+        {"direction": [0, 1, -1], "shadows": false}]}})",
+                                   "d.json");
+    REQUIRE(s.render.lights.size() == 3);
+    const LightDesc& key = s.render.lights[0];
+    CHECK(key.type == LightDesc::Type::Directional);
+    CHECK(key.shadows);
+    CHECK_FALSE(key.cameraRelative);
+    CHECK(key.colour.isApprox(Vec3::Constant(2)));
+    CHECK(key.shininess == 32);
+    const LightDesc& point = s.render.lights[1];
+    CHECK(point.type == LightDesc::Type::Point);
+    CHECK(point.vector.isApprox(Vec3(0, 3, 1)));
+    CHECK(point.cameraRelative);
+    CHECK_FALSE(point.shadows);
+    CHECK(point.shininess == 0);
+    CHECK_FALSE(point.floor);
+    CHECK_FALSE(s.render.lights[2].shadows);
+    CHECK(parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}]})", "d.json").render.lights.empty());
+
+    auto lights = [](const std::string& list) {
+        return errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"lights": )" + list + "}}");
+    };
+    CHECK_THAT(lights(R"([{"type": "point", "position": [0, 1, 0], "shadows": true}])"),
+               Catch::Contains("render.lights[0].shadows") && Catch::Contains("only a directional light"));
+    CHECK_THAT(lights(R"([{"direction": [0, 1, 0]}, {"direction": [1, 1, 0], "shadows": true}])"),
+               Catch::Contains("render.lights[1].shadows") && Catch::Contains("lights[0] already does"));
+    CHECK_THAT(lights(R"([{"direction": [0, -1, 0]}])"), Catch::Contains("must shine from above"));
+    CHECK_THAT(lights(R"([{"type": "point", "direction": [0, 1, 0]}])"), Catch::Contains("'position', not a direction"));
+    CHECK_THAT(lights(R"([{"type": "point"}])"), Catch::Contains("render.lights[0].position") && Catch::Contains("missing"));
+    CHECK_THAT(lights(R"([{"direction": [0, 0, 0]}])"), Catch::Contains("must not be [0, 0, 0]"));
+    CHECK_THAT(lights("[]"), Catch::Contains("at least one light"));
+    CHECK_THAT(lights(R"([{"direction": [0, 1, 0], "attach": "camra"}])"), Catch::Contains("render.lights[0].attach"));
+}
