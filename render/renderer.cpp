@@ -513,15 +513,24 @@ struct Renderer::Impl {
         targetWidth = targetHeight = targetFactor = 0;
     }
 
-    /// A w x h RGBA16F texture (nearest sampling, no mipmaps) and a framebuffer with it as the
-    /// only colour attachment, left bound; `what` names it if the framebuffer is incomplete.
-    static void makeColourTarget(int w, int h, GLuint& texture, GLuint& fbo, const char* what) {
+    /// A w x h half-float texture (`internal`: GL_RGBA16F or GL_R16F; nearest sampling, no
+    /// mipmaps), left bound.
+    static GLuint makeHalfTexture(int w, int h, GLenum internal) {
+        GLuint texture = 0;
         glGenTextures(1, &texture);
         glBindTexture(GL_TEXTURE_2D, texture);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
+        glTexImage2D(GL_TEXTURE_2D, 0, static_cast<GLint>(internal), w, h, 0, internal == GL_R16F ? GL_RED : GL_RGBA,
+                     GL_HALF_FLOAT, nullptr);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        return texture;
+    }
+
+    /// A w x h RGBA16F texture (makeHalfTexture) and a framebuffer with it as the only colour
+    /// attachment, left bound; `what` names it if the framebuffer is incomplete.
+    static void makeColourTarget(int w, int h, GLuint& texture, GLuint& fbo, const char* what) {
+        texture = makeHalfTexture(w, h, GL_RGBA16F);
         glGenFramebuffers(1, &fbo);
         glBindFramebuffer(GL_FRAMEBUFFER, fbo);
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
@@ -550,12 +559,7 @@ struct Renderer::Impl {
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, sceneColour, 0);
         glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, sceneDepth);
         if (settings.linearPlanes) {
-            glGenTextures(1, &sceneContact);
-            glBindTexture(GL_TEXTURE_2D, sceneContact);
-            glTexImage2D(GL_TEXTURE_2D, 0, GL_R16F, sw, sh, 0, GL_RED, GL_HALF_FLOAT, nullptr);
-            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+            sceneContact = makeHalfTexture(sw, sh, GL_R16F);
             glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_TEXTURE_2D, sceneContact, 0);
         }
         checkFramebuffer("supersampled colour");
