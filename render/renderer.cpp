@@ -315,6 +315,7 @@ std::string findShaderDir() {
 
 struct Renderer::Impl {
     RenderSettings settings;
+    std::vector<Light> rig;  ///< settings.lights, or the studio rig
     GlContext context;
     // meshProgram reads the per-vertex highlight scalar; meshPlainProgram (DGV_SCALAR 0) is for
     // meshes without one: one varying less to set up and interpolate per triangle and fragment
@@ -360,7 +361,8 @@ struct Renderer::Impl {
     std::vector<OverlayDraw> overlayDraws;
     Renderer::Timings timings;
 
-    explicit Impl(const RenderSettings& s) : settings(s), context(s.backend) {
+    explicit Impl(const RenderSettings& s)
+        : settings(s), rig(s.lights.empty() ? defaultLightRig() : s.lights), context(s.backend) {
         const std::string dir = s.shaderDir.empty() ? findShaderDir() : s.shaderDir;
         // Supersampled: the mesh pass shares its PCF taps across each 2x2 fragment quad
         // (lighting.glsl, DGV_QUAD_PCF; fine derivatives, core in GL 4.5). At 1x a quad spans
@@ -895,10 +897,6 @@ struct Renderer::Impl {
         return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }
 
-    /// The frame for compositing (Renderer::render's `linear`) from the resolve's half floats in
-    /// `readback` (bottom row first) and the scene pass's depth and contact matte. groundAtOutput:
-    /// the height of a ground drawn at output size, outside the depth buffer; its depth is the
-    /// view ray's, where the ground shows.
     /// The rig (RenderSettings::lights, else the default) in world space for this camera: a
     /// camera-relative light turns with the camera's azimuth (a classic turntable: the object
     /// turns under studio lights), level with the horizon.
@@ -909,7 +907,6 @@ struct Renderer::Impl {
         backH.normalize();
         const Vec3 rightH = Vec3::UnitY().cross(backH).normalized();
         Lights out;
-        const std::vector<Light> rig = settings.lights.empty() ? defaultLightRig() : settings.lights;
         for (const Light& l : rig) {
             const Vec3& v = l.vector;
             const Vec3 turned = v.x() * rightH + v.y() * Vec3::UnitY() + v.z() * backH;
@@ -931,6 +928,10 @@ struct Renderer::Impl {
         return out;
     }
 
+    /// The frame for compositing (Renderer::render's `linear`) from the resolve's half floats in
+    /// `readback` (bottom row first) and the scene pass's depth and contact matte. groundAtOutput:
+    /// the height of a ground drawn at output size, outside the depth buffer; its depth is the
+    /// view ray's, where the ground shows.
     LinearImage linearPlanes(const Camera& camera, Real nearZ, Real farZ, std::optional<Real> groundAtOutput) {
         const int w = settings.width, h = settings.height, factor = settings.supersample;
         const int sw = w * factor, sh = h * factor;
@@ -1097,7 +1098,7 @@ struct Renderer::Impl {
             bias(3, 3) = 1;
             bias.block<3, 1>(0, 3) = Vec3::Constant(0.5);
             lights.shadowFromWorld = bias * lightClipFromWorld;
-            lights.shadows = lights.shadowLight >= 0;
+            lights.shadows = true;
             const Real texelWorld = 2.0 * radius / kShadowMapSize;
             lights.shadowRadius = 1.0 / kShadowMapSize;  // 4 taps at +-1 texel: ~4-texel penumbra
             lights.normalOffset = 1.5 * texelWorld;

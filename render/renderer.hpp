@@ -5,6 +5,7 @@
 /// by default.
 
 #include "base/image.hpp"
+#include "base/light.hpp"
 #include "base/types.hpp"
 #include "render/camera.hpp"
 
@@ -94,29 +95,9 @@ struct FrameScene {
     Real groundMarkGlow = 0;  ///< the marks' colour also emitted, times this (as ScalarRamp::glow)
 };
 
-/// A light of the rig (RenderSettings::lights).
-struct Light {
-    enum class Type { Directional, Point } type = Type::Directional;
-    /// Directional: the direction towards the light; point: its position. In world space, or with
-    /// cameraRelative in the camera's level frame: x to the right of the view, y up, z back
-    /// towards the camera (turned with the camera's azimuth, not tilted with its pitch), a point
-    /// light's position then relative to the eye.
-    Vec3 vector = Vec3::UnitY();
-    /// Linear RGB times the intensity: a directional light's irradiance on a surface facing it; a
-    /// point light's at 1 unit of distance (falling off as 1/d²).
-    Vec3 colour = Vec3::Ones();
-    bool cameraRelative = false;
-    bool shadows = false;  ///< casts the shadow map's shadows (a directional light, one at most)
-    Real shininess = 0;    ///< the specular highlight's exponent (0: none)
-    bool floor = true;     ///< lights the studio floor (false: light linking's "exclude the floor")
-};
-
 /// Today's studio rig, attached to the camera: a key above front-left (the shadows, highlights at
 /// exponent 48), a cool fill low front-right, a rim behind (highlights at 24; the floor excluded).
 std::vector<Light> defaultLightRig();
-
-/// The most lights a rig holds (shaders/lighting.glsl, DGV_MAX_LIGHTS).
-constexpr int kMaxLights = 8;
 
 /// Where the OpenGL context comes from (both give llvmpipe and bit-identical images on Mesa 22).
 enum class GlBackend {

@@ -327,7 +327,7 @@ Shot loadShot(const std::string& dir) {
     s.width = scene.render.width;
     s.height = scene.render.height;
     s.key = sceneFrameKey(scene);
-    s.extension = scene.render.format == RenderDesc::Format::Exr ? "exr" : "png";
+    s.extension = scene.render.frameExtension();
     return s;
 }
 

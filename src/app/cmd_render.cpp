@@ -184,7 +184,7 @@ int runRender(const RenderOptions& options) {
     if (options.format == "exr") scene.render.format = RenderDesc::Format::Exr;
     if (options.format == "png") scene.render.format = RenderDesc::Format::Png;
     const bool exr = scene.render.format == RenderDesc::Format::Exr;
-    const std::string extension = exr ? "exr" : "png";
+    const std::string extension = scene.render.frameExtension();
     if (options.movie && exr)
         throw InputError("--movie", "",
                          "the preview movie is made from PNG frames, and this render writes EXR: render the PNG "

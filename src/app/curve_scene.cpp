@@ -86,17 +86,7 @@ RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend) {
     rs.creaseDegrees = desc.creaseDegrees;
     rs.shadowSoftness = desc.shadowSoftness;
     rs.linearPlanes = desc.format == RenderDesc::Format::Exr;
-    for (const LightDesc& d : desc.lights) {
-        Light l;
-        l.type = d.type == LightDesc::Type::Point ? Light::Type::Point : Light::Type::Directional;
-        l.vector = d.vector;
-        l.colour = d.colour;
-        l.cameraRelative = d.cameraRelative;
-        l.shadows = d.shadows;
-        l.shininess = d.shininess;
-        l.floor = d.floor;
-        rs.lights.push_back(l);
-    }
+    rs.lights = desc.lights;
     rs.backend = backend;
     return rs;
 }

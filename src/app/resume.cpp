@@ -3,6 +3,7 @@
 #include "base/errors.hpp"
 #include "base/progress.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checksum.hpp"
 #include "io/exr.hpp"
 #include "io/png.hpp"
 
@@ -79,8 +80,8 @@ bool frameIsComplete(const std::string& path, int frame, int width, int height, 
     Image decoded;
     try {
         if (fs::path(path).extension() == ".exr") {
-            // The seal first: OpenEXR's reader is not shown damaged bytes.
-            if (!exrFileProblem(path).empty()) return false;
+            // The seal first: OpenEXR's reader is not shown damaged bytes. Then every scanline.
+            if (!fileChecksumProblem(path).empty()) return false;
             decoded = encodedImageOf(readExr(path, &text));
         } else {
             decoded = readPng(path, &text);  // the whole file: image data, CRCs, IEND

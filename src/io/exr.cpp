@@ -175,16 +175,4 @@ LinearImage readExr(const fs::path& path, std::vector<std::pair<std::string, std
     }
 }
 
-std::string exrFileProblem(const fs::path& path) {
-    // The bytes first: OpenEXR's reader trusts the offsets and sizes it reads, so a damaged file
-    // never reaches it.
-    if (std::string why = fileChecksumProblem(path); !why.empty()) return why;
-    try {
-        decode(path, nullptr);
-    } catch (const std::exception& e) {
-        return "cannot be read: " + libraryMessage(e.what());
-    }
-    return {};
-}
-
 }  // namespace dgv

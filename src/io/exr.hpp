@@ -24,17 +24,12 @@ void writeExr(const std::filesystem::path& path, const LinearImage& image,
 
 /// Reads a file written by writeExr, or any EXR whose first part has R, G and B channels; the
 /// image is the file's data window. A missing A reads as 1, a missing Z as LinearImage::kNoDepth,
-/// a missing `contact` as 0. The seal is not checked (foreign files have none: exrFileProblem
-/// does). InputError naming the file when it is not such a file (RuntimeError for the system's
+/// a missing `contact` as 0. The seal is not checked (foreign files have none): a caller that
+/// wants a whole file of writeExr checks io/checksum.hpp's fileChecksumProblem first, so damaged
+/// bytes never reach OpenEXR (app/resume.cpp). InputError naming the file when it is not such a file (RuntimeError for the system's
 /// read errors, read_file.hpp). `text`, when given, receives the header's string attributes but
 /// `dgv_checksum`, sorted by key.
 LinearImage readExr(const std::filesystem::path& path,
                     std::vector<std::pair<std::string, std::string>>* text = nullptr);
-
-/// Whether the file at `path` is a whole file of writeExr: "" when it is, else why not: "cannot
-/// be read: <errno's text>", "has no checksum", "is corrupt (its checksum does not match)" or
-/// "cannot be read: <OpenEXR's message>". The seal is checked before OpenEXR sees the file, so
-/// any changed byte is found and nothing damaged reaches the decoder; then every scanline is read.
-std::string exrFileProblem(const std::filesystem::path& path);
 
 }  // namespace dgv

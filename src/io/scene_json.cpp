@@ -359,14 +359,14 @@ void limitNameLength(const ObjectReader& r, const std::string& name, const char*
 
 /// render.lights: the rig, replacing the studio rig (docs/rendering.md, "Lights"). The first
 /// directional light casts the shadows unless it says otherwise; one light at most does.
-void readLights(ObjectReader& g, std::vector<LightDesc>& lights) {
+void readLights(ObjectReader& g, std::vector<Light>& lights) {
     int shadowing = -1;
     g.array("lights", [&](ObjectReader& l, int i) {
-        if (i >= 8) l.fail("", "a rig holds at most 8 lights");
-        LightDesc d;
-        d.type = l.choiceOf("type", LightDesc::Type::Directional,
-                            {{"directional", LightDesc::Type::Directional}, {"point", LightDesc::Type::Point}});
-        const bool directional = d.type == LightDesc::Type::Directional;
+        if (i >= kMaxLights) l.fail("", "a rig holds at most " + std::to_string(kMaxLights) + " lights");
+        Light d;
+        d.type = l.choiceOf("type", Light::Type::Directional,
+                            {{"directional", Light::Type::Directional}, {"point", Light::Type::Point}});
+        const bool directional = d.type == Light::Type::Directional;
         if (directional && l.has("position")) l.fail("position", "a directional light has a 'direction', not a position");
         if (!directional && l.has("direction")) l.fail("direction", "a point light has a 'position', not a direction");
         const char* where = directional ? "direction" : "position";
@@ -382,7 +382,7 @@ void readLights(ObjectReader& g, std::vector<LightDesc>& lights) {
         if (d.shadows && !(d.vector.y() > 0))
             l.fail("shadows", "a light that casts shadows must shine from above (direction y > 0)");
         if (d.shadows) shadowing = i;
-        d.shininess = l.number("specular", d.shininess, 0, 1e4);
+        d.shininess = l.number("specular", 32, 0, 1e4);
         d.floor = l.boolean("floor", d.floor);
         lights.push_back(d);
     });

@@ -4,6 +4,7 @@
 /// path resolved. io/scene_json maps a scene file onto these (scenes/README.md is the schema);
 /// the pipeline stages read them. World units are metres, right-handed, Y up.
 
+#include "base/light.hpp"
 #include "base/types.hpp"
 #include "dynamics/forces.hpp"
 #include "geom/sdf_grid.hpp"
@@ -218,17 +219,6 @@ enum class GlnLoopSet {
     Coarse,   ///< every coarse ring (a cover of the boundary, 2 voxels across)
 };
 
-/// A light of render.lights (render/renderer.hpp, Light).
-struct LightDesc {
-    enum class Type { Directional, Point } type = Type::Directional;
-    Vec3 vector = Vec3::UnitY();  ///< directional: towards the light; point: its position
-    Vec3 colour = Vec3::Ones();   ///< linear RGB times the intensity
-    bool cameraRelative = false;  ///< attach "camera": vector in the camera's level frame
-    bool shadows = false;
-    Real shininess = 32;  ///< specular exponent (0: none)
-    bool floor = true;    ///< lights the studio floor
-};
-
 struct RenderDesc {
     int width = 640;
     int height = 360;
@@ -241,8 +231,9 @@ struct RenderDesc {
     /// The frames' files: PNG (sRGB, bitDepth) or OpenEXR (linear half float with premultiplied
     /// alpha, and the depth Z and the contact matte as extra channels; io/exr.hpp).
     enum class Format { Png, Exr } format = Format::Png;
+    const char* frameExtension() const { return format == Format::Exr ? "exr" : "png"; }
     Real creaseDegrees = 40;   ///< normals split along edges sharper than this (180: smooth)
-    std::vector<LightDesc> lights;  ///< render.lights; empty: the studio rig attached to the camera
+    std::vector<Light> lights;  ///< render.lights; empty: the studio rig attached to the camera
     Real shadowSoftness = 3;   ///< the key light's angular radius, degrees (0: hard shadows)
     Real colliderOpacity = 1;  ///< colliders drawn see-through below 1 (an x-ray view of the contact behind them)
     /// Contact highlighting (render.contact): the contact set R as a colour ramp on the surface.

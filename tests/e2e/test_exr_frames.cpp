@@ -4,6 +4,7 @@
 // falling onto the ground, contact highlighted from frame 4 on) keeps each run under a second.
 
 #include "e2e/e2e_run.hpp"
+#include "io/checksum.hpp"
 #include "io/exr.hpp"
 #include "io/png.hpp"
 #include "support/helpers.hpp"
@@ -61,7 +62,7 @@ TEST_CASE("e2e: render --format exr writes sealed EXR frames: the PNG's colour, 
         INFO("frame " << f);
         const fs::path file = dir.path() / "exr" / frameName(f, "exr");
         CHECK_FALSE(fs::exists(dir.path() / "exr" / frameName(f, "png")));
-        REQUIRE(exrFileProblem(file).empty());
+        REQUIRE(fileChecksumProblem(file).empty());
         std::vector<std::pair<std::string, std::string>> text;
         const LinearImage exr = readExr(file, &text);
         CHECK(std::find(text.begin(), text.end(), std::make_pair(std::string("dgv:frame"), std::to_string(f))) !=

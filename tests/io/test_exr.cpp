@@ -2,6 +2,7 @@
 // what it says (one-part scanline ZIP, y = 0 the top row) for OpenEXR itself and its tools, the
 // bytes do not depend on the run or on OpenEXR's thread count, and the seal finds any damage.
 
+#include "io/checksum.hpp"
 #include "io/exr.hpp"
 
 #include "base/errors.hpp"
@@ -231,7 +232,7 @@ TEST_CASE("exr: the seal finds a flipped bit, a truncation and garbage, and noth
     test::TempDir dir("exr-seal");
     const fs::path good = dir.path() / "good.exr";
     writeExr(good, pattern(64, 48));
-    CHECK(exrFileProblem(good).empty());
+    CHECK(fileChecksumProblem(good).empty());
     const std::string bytes = readBytes(good);
     const std::size_t mid = bytes.size() / 2;
 
@@ -247,7 +248,7 @@ TEST_CASE("exr: the seal finds a flipped bit, a truncation and garbage, and noth
         INFO(name);
         const fs::path p = dir.path() / (name + ".exr");
         writeBytes(p, content);
-        CHECK(exrFileProblem(p) == "is corrupt (its checksum does not match)");
+        CHECK(fileChecksumProblem(p) == "is corrupt (its checksum does not match)");
         // readExr does not check the seal (foreign files have none): OpenEXR meets the damage.
         try {
             readExr(p);
@@ -258,8 +259,8 @@ TEST_CASE("exr: the seal finds a flipped bit, a truncation and garbage, and noth
 
     std::vector<float> rgb;
     writeForeignRgb(dir.path() / "foreign.exr", 4, 3, rgb);
-    CHECK(exrFileProblem(dir.path() / "foreign.exr") == "has no checksum");
-    CHECK_THAT(exrFileProblem(dir.path() / "missing.exr"), Catch::StartsWith("cannot be read: "));
+    CHECK(fileChecksumProblem(dir.path() / "foreign.exr") == "has no checksum");
+    CHECK_THAT(fileChecksumProblem(dir.path() / "missing.exr"), Catch::StartsWith("cannot be read: "));
 }
 
 TEST_CASE("exr: a foreign RGB file reads with A 1, Z kNoDepth and contact 0", "[io][exr]") {
@@ -309,7 +310,7 @@ TEST_CASE("exr: bad writes and reads are errors naming the file, bad arguments a
             CHECK(e.input() == p.string());
         }
     }
-    CHECK_THAT(exrFileProblem(png), Catch::Equals("has no checksum"));
+    CHECK_THAT(fileChecksumProblem(png), Catch::Equals("has no checksum"));
 
     LinearImage shortDepth = img;
     shortDepth.depth.pop_back();

@@ -392,14 +392,14 @@ TEST_CASE("scene_json: render.lights reads a rig, the first directional light ca
         {"direction": [0, 1, -1], "shadows": false}]}})",
                                    "d.json");
     REQUIRE(s.render.lights.size() == 3);
-    const LightDesc& key = s.render.lights[0];
-    CHECK(key.type == LightDesc::Type::Directional);
+    const Light& key = s.render.lights[0];
+    CHECK(key.type == Light::Type::Directional);
     CHECK(key.shadows);
     CHECK_FALSE(key.cameraRelative);
     CHECK(key.colour.isApprox(Vec3::Constant(2)));
     CHECK(key.shininess == 32);
-    const LightDesc& point = s.render.lights[1];
-    CHECK(point.type == LightDesc::Type::Point);
+    const Light& point = s.render.lights[1];
+    CHECK(point.type == Light::Type::Point);
     CHECK(point.vector.isApprox(Vec3(0, 3, 1)));
     CHECK(point.cameraRelative);
     CHECK_FALSE(point.shadows);
