@@ -389,10 +389,8 @@ void readLights(ObjectReader& g, std::vector<Light>& lights) {
     if (g.has("lights") && lights.empty()) g.fail("lights", "expected at least one light (leave it out for the studio rig)");
 }
 
-}  // namespace
-
-SceneDesc parseScene(const std::string& text, const fs::path& path) {
-    const std::string file = path.string();
+/// The JSON document of a scene file, or one line naming what is malformed.
+Json parseJson(const std::string& text, const std::string& file) {
     Json root;
     try {
         root = Json::parse(text);
@@ -412,6 +410,420 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         throw InputError(file, "", "malformed JSON: " + libraryMessage(msg));
     }
 
+    return root;
+}
+
+/// objects[i].primitive.
+void readPrimitive(ObjectReader& p, PrimitiveDesc& pd) {
+    std::string type = p.choice("type", "", {"sphere", "box", "torus", "capsule"});
+    if (type == "sphere") {
+        pd.type = PrimitiveType::Sphere;
+        pd.radius = p.number("radius", 0.5, 0, HUGE_VAL, true);
+    } else if (type == "box") {
+        pd.type = PrimitiveType::Box;
+        pd.size = p.vec3("size", Vec3::Ones());
+        for (int k = 0; k < 3; ++k)
+            if (!(pd.size[k] > 0)) p.fail("size[" + std::to_string(k) + "]", "expected a positive edge length");
+    } else if (type == "torus") {
+        pd.type = PrimitiveType::Torus;
+        pd.majorRadius = p.number("major_radius", 0.5, 0, HUGE_VAL, true);
+        pd.minorRadius = p.number("minor_radius", 0.2, 0, HUGE_VAL, true);
+        if (pd.minorRadius >= pd.majorRadius)
+            p.fail("minor_radius", "must be smaller than major_radius (a torus with no hole)");
+    } else {
+        pd.type = PrimitiveType::Capsule;
+        pd.radius = p.number("radius", 0.3, 0, HUGE_VAL, true);
+        pd.height = p.number("height", 1.0, 0, HUGE_VAL, false);
+    }
+}
+
+/// objects[i].material: the preset first (jelly is MaterialDesc's default), then the keys
+/// given override it.
+void readMaterial(ObjectReader& m, MaterialDesc& mat) {
+    const std::string preset = m.choice("preset", "jelly", {"jelly", "putty", "goo"});
+    if (preset == "goo") {
+        mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
+        mat.stiffness = 0;
+        mat.wobbles = 0;
+        mat.damping = 0;
+        mat.viscosity = 1;
+    } else if (preset == "putty") {
+        mat.yield = 0.1;
+        mat.wobbles = 1;
+    }
+    const int ways = int(m.has("stiffness")) + int(m.has("wobble_hz")) + int(m.has("sag"));
+    if (ways > 1) m.fail(m.has("sag") ? "sag" : "wobble_hz", "give one of 'stiffness', 'wobble_hz' and 'sag'");
+    if (m.has("damping") && m.has("wobbles")) m.fail("wobbles", "give 'damping' or 'wobbles', not both");
+    mat.density = m.number("density", mat.density, 0, HUGE_VAL, true);
+    mat.solver = m.choiceOf("solver", mat.solver,
+                            {{"chain", MaterialDesc::Solver::Chain}, {"one", MaterialDesc::Solver::One}});
+    if (m.has("stiffness")) {
+        mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
+        mat.stiffness = m.number("stiffness", 0, 0, 1e8);
+    } else if (m.has("wobble_hz")) {
+        mat.stiffnessFrom = MaterialDesc::StiffnessFrom::WobbleHz;
+        mat.wobbleHz = m.number("wobble_hz", 0, 0, 1000, true);
+    } else if (m.has("sag")) {
+        mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Sag;
+        mat.sag = m.number("sag", 0, 0.001, 10);
+    }
+    if (m.has("damping")) {
+        mat.damping = m.number("damping", mat.damping, 0, 1e6);
+        mat.wobbles = 0;
+    } else if (m.has("wobbles")) {
+        mat.wobbles = m.number("wobbles", 0, 0, 1000, true);
+    }
+    const bool goo = mat.stiffnessFrom == MaterialDesc::StiffnessFrom::Value && mat.stiffness == 0;
+    if (goo) mat.wobbles = 0;  // nothing wobbles: `damping` (default 1) as given
+    if (goo && m.has("wobbles")) m.fail("wobbles", "needs a stiffness (goo does not wobble): give 'damping'");
+    mat.viscosity = m.number("viscosity", mat.viscosity, 0, 1e6);
+    mat.yield = m.number("yield", mat.yield, 0, 10);
+    if (mat.yield > 0 && goo)
+        m.fail("yield", "needs a 'stiffness' > 0 (goo has no rest shape to yield; it flows at any strain)");
+    mat.volumeTolerance = m.number("volume_tolerance", mat.volumeTolerance, 1e-12, 0.1);
+    mat.maxDeltaGamma = m.number("max_delta_gamma", mat.maxDeltaGamma, 0, 1, true);
+    mat.pinnedLoad = m.boolean("pinned_load", mat.pinnedLoad);
+    mat.reparametrise = m.boolean("reparametrise", mat.reparametrise);
+}
+
+/// objects[i].pin: a box, a ball or a vertex group.
+void readPin(ObjectReader& p, ObjectDesc& d) {
+    const bool box = p.has("min") || p.has("max"), ball = p.has("centre") || p.has("radius"),
+               group = p.has("group");
+    if (int(box) + int(ball) + int(group) != 1)
+        p.fail("", "give a box ('min' and 'max'), a ball ('centre' and 'radius') or a vertex group ('group')");
+    if (group) {
+        if (d.isPrimitive) p.fail("group", "a vertex group needs a mesh object (a primitive has none)");
+        d.pin.kind = PinDesc::Kind::Group;
+        d.pin.group = p.string("group", "");
+        if (d.pin.group.empty())
+            p.fail("group", "expected the name of a mesh or node in the object's mesh file");
+    } else if (box) {
+        d.pin.kind = PinDesc::Kind::Box;
+        d.pin.min = p.vec3("min", Vec3::Zero());
+        d.pin.max = p.vec3("max", Vec3::Zero());
+        for (int k = 0; k < 3; ++k)
+            if (!(d.pin.max[k] >= d.pin.min[k])) p.fail("max", "must be >= min in every coordinate");
+    } else {
+        d.pin.kind = PinDesc::Kind::Ball;
+        d.pin.centre = p.vec3("centre", Vec3::Zero());
+        d.pin.radius = p.number("radius", 0, 0, HUGE_VAL, true);
+    }
+}
+
+/// objects[i].
+ObjectDesc readObject(ObjectReader& o, int i, const fs::path& sceneDir) {
+    ObjectDesc d;
+    d.name = o.string("name", "object" + std::to_string(i));
+    limitNameLength(o, d.name, "mesh cache files");
+    bool hasMesh = o.has("mesh"), hasPrim = o.has("primitive");
+    if (hasMesh == hasPrim) o.fail("", "give exactly one of 'mesh' (a file) or 'primitive'");
+    if (hasMesh) {
+        d.meshPath = resolveInput(sceneDir, o.string("mesh", "")).string();
+        d.meshName = o.string("mesh_name", "");
+    }
+    o.object("primitive", [&](ObjectReader& p) {
+        d.isPrimitive = true;
+        readPrimitive(p, d.primitive);
+    });
+    o.object("transform", [&](ObjectReader& t) {
+        d.transform = readTransform(t);
+        if (d.isPrimitive && t.has("units"))
+            t.fail("units", "applies to a mesh file (a primitive is in metres; use scale)");
+    });
+    readVoxel(o, d.voxel);
+    d.color = o.color("color", d.color);
+    d.deformable = o.boolean("deformable", true);
+    o.object("material", [&](ObjectReader& m) { readMaterial(m, d.material); });
+    d.velocity = o.vec3("velocity", d.velocity);
+    d.spinDegrees = o.vec3("spin", d.spinDegrees);
+    o.object("pin", [&](ObjectReader& p) { readPin(p, d); });
+    return d;
+}
+
+/// curves[i] (the seed's curve figures).
+CurveDesc readCurve(ObjectReader& c, int i, const fs::path& sceneDir) {
+    CurveDesc d;
+    d.name = c.string("name", "curve" + std::to_string(i));
+    const bool hasFile = c.has("file"), hasRing = c.has("ring");
+    if (hasFile == hasRing) c.fail("", "give exactly one of 'file' (a curve file) or 'ring'");
+    if (hasFile) d.curvePath = resolveInput(sceneDir, c.string("file", "")).string();
+    c.object("ring", [&](ObjectReader& g) {
+        d.centre = g.vec3("centre", d.centre);
+        d.normal = g.direction("normal", d.normal);
+        d.radius = g.number("radius", d.radius, 0, HUGE_VAL, true);
+        d.segments = g.integer("segments", d.segments, 3, 10000000);
+    });
+    if (const Json* m = c.get("motion")) {
+        if (!m->is_array() || m->empty())
+            c.fail("motion", "expected an array of [frame, [x, y, z]] keys, got " + describe(*m));
+        for (std::size_t k = 0; k < m->size(); ++k) {
+            const Json& e = (*m)[k];
+            const std::string key = "motion[" + std::to_string(k) + "]";
+            if (!e.is_array() || e.size() != 2 || !e[1].is_array() || e[1].size() != 3)
+                c.fail(key, "expected a [frame, [x, y, z]] key, got " + describe(e));
+            const Real f = c.checkNumber(key + "[0]", e[0], -HUGE_VAL, HUGE_VAL, false);
+            Vec3 v;
+            for (int a = 0; a < 3; ++a)
+                v[a] = c.checkNumber(key + "[1][" + std::to_string(a) + "]", e[1][static_cast<std::size_t>(a)],
+                                     -HUGE_VAL, HUGE_VAL, false);
+            if (!d.motion.empty() && f <= d.motion.back().first) c.fail(key, "key frames must increase");
+            d.motion.push_back({f, v});
+        }
+    }
+    d.color = c.color("color", d.color);
+    d.tubeRadius = c.number("tube_radius", d.tubeRadius, 0, HUGE_VAL, true);
+    return d;
+}
+
+/// forces[i].
+ForceTerm readForce(ObjectReader& f) {
+    ForceTerm d;
+    std::string type = f.choice("type", "", {"gravity", "attractor", "vortex", "burst", "wind", "torsion"});
+    if (type == "gravity") {
+        d.kind = ForceKind::Gravity;
+        d.direction = f.direction("direction", d.direction);
+        d.strength = readKeyframes(f, "strength", 9.81);
+    } else if (type == "attractor") {
+        d.kind = ForceKind::Attractor;
+        d.centre = f.vec3("position", d.centre);
+        d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+        d.softening = f.number("softening", 0.25 * d.radius, 0, HUGE_VAL, true);
+        d.falloff = f.number("falloff", 2, 0, 4);
+        d.strength = readKeyframes(f, "strength", 1);
+    } else if (type == "vortex") {
+        d.kind = ForceKind::Vortex;
+        d.centre = f.vec3("position", d.centre);
+        d.axis = f.direction("axis", d.axis);
+        d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+        d.falloff = f.number("falloff", 1, 0, 4);
+        d.strength = readKeyframes(f, "strength", 1);
+    } else if (type == "torsion") {
+        d.kind = ForceKind::Torsion;
+        d.centre = f.vec3("position", d.centre);
+        d.axis = f.direction("axis", d.axis);
+        d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+        d.strength = readKeyframes(f, "strength", 1);
+    } else if (type == "burst") {
+        d.kind = ForceKind::Burst;
+        d.centre = f.vec3("position", d.centre);
+        d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
+        d.strength = readKeyframes(f, "strength", 1);
+    } else {
+        d.kind = ForceKind::Wind;
+        d.direction = f.direction("direction", Vec3::UnitX());
+        d.strength = readKeyframes(f, "strength", 1);
+        d.turbulence = f.number("turbulence", 0, 0, HUGE_VAL);
+        d.scale = f.number("scale", 1, 0, HUGE_VAL, true);
+        d.seed = static_cast<unsigned>(f.integer("seed", 1, 0, 1 << 30));
+        d.modes = f.integer("modes", 32, 1, 4096);
+    }
+    return d;
+}
+
+/// A levelset collider: its grid is loaded here, so a bad file stops every command before
+/// anything is written.
+void readLevelSetCollider(ObjectReader& c, ColliderDesc& d, const fs::path& sceneDir) {
+    d.type = ColliderType::LevelSet;
+    if (!c.has("file")) c.fail("file", "missing; a levelset collider needs a .vdb file");
+    d.levelSetPath = resolveInput(sceneDir, c.string("file", "")).string();
+    d.levelSetGrid = c.string("grid", "");
+    c.object("transform", [&](ObjectReader& t) {
+        d.transform = readTransform(t);
+        if (t.has("units")) t.fail("units", "applies to a mesh file (a level set is in the file's metres)");
+        const Vec3& k = d.transform.scale;
+        if (k.x() != k.y() || k.x() != k.z() || !(k.x() > 0))
+            t.fail("scale", "a levelset collider takes a positive uniform scale only (a number)");
+    });
+    try {
+        d.levelSet = std::make_shared<const SdfGrid>(readVdbLevelSet(d.levelSetPath, d.levelSetGrid));
+    } catch (const InputError& e) {
+        c.fail("file", e.what());
+    }
+}
+
+/// A mesh collider: imported and turned into a signed-distance grid here, so a bad mesh stops
+/// every command before anything is written.
+void readMeshCollider(ObjectReader& c, ColliderDesc& d, const fs::path& sceneDir) {
+    d.type = ColliderType::Mesh;
+    if (!c.has("mesh")) c.fail("mesh", "missing; a mesh collider needs a mesh file");
+    d.meshPath = resolveInput(sceneDir, c.string("mesh", "")).string();
+    c.object("transform", [&](ObjectReader& t) { d.transform = readTransform(t); });
+    d.meshVoxelSize = c.number("voxel_size", 0, 0, HUGE_VAL);
+    const Mat3 A = d.transform.linear();
+    if (!(std::abs(A.determinant()) > 0)) c.fail("transform", "the transform flattens the mesh (a zero scale)");
+    try {
+        MeshImportOptions opts;
+        opts.unitScale = d.transform.units;
+        TriangleMesh mesh = importMesh(d.meshPath, opts);
+        transformMesh(mesh, A, d.transform.translate);
+        if (const std::string w = unlikelySizeWarning(mesh, "mesh collider " + d.meshPath); !w.empty())
+            logWarning(w);
+        const MeshReport report = analyseMesh(mesh);
+        if (!report.closed || !report.manifold)
+            throw InputError(d.meshPath, "",
+                             "a mesh collider must be closed and consistently oriented (" +
+                                 std::to_string(report.boundaryEdges) + " open edges, " +
+                                 std::to_string(report.nonManifoldEdges) +
+                                 " non-manifold edges): its inside is what bodies are kept out of");
+        // importMesh turned inside-out parts around; what is left without volume is flat
+        if (!(report.signedVolume > 0))
+            throw InputError(d.meshPath, "", "the mesh encloses no volume (it is flat)");
+        const Vec3 extent = report.bounds.size();
+        const Real voxel = d.meshVoxelSize > 0 ? d.meshVoxelSize : extent.maxCoeff() / 128;
+        d.levelSet = std::make_shared<const SdfGrid>(meshLevelSet(mesh, voxel, 3, d.meshPath));
+        d.worldMesh = std::make_shared<const TriangleMesh>(std::move(mesh));
+    } catch (const InputError& e) {
+        c.fail("mesh", e.what());
+    }
+}
+
+/// colliders[i].
+ColliderDesc readCollider(ObjectReader& c, const fs::path& sceneDir) {
+    ColliderDesc d;
+    std::string type = c.choice("type", "", {"ground", "sphere", "mesh", "levelset"});
+    if (type == "ground") {
+        d.type = ColliderType::Ground;
+        d.height = c.number("height", 0, -HUGE_VAL, HUGE_VAL);
+    } else if (type == "sphere") {
+        d.type = ColliderType::Sphere;
+        d.centre = c.vec3("centre", d.centre);
+        d.radius = c.number("radius", 1, 0, HUGE_VAL, true);
+    } else if (type == "levelset") {
+        readLevelSetCollider(c, d, sceneDir);
+    } else {
+        readMeshCollider(c, d, sceneDir);
+    }
+    d.friction = c.number("friction", d.friction, 0, 1);
+    d.restitution = c.number("restitution", d.restitution, 0, 1);
+    return d;
+}
+
+/// camera.
+void readCamera(ObjectReader& c, CameraDesc& d) {
+    std::string type = c.choice("type", "turntable", {"turntable", "look_at", "keyframed"});
+    d.fovDegrees = c.number("fov", d.fovDegrees, 1, 170);
+    d.lens = readLens(c, std::nullopt);
+    if (type == "turntable") {
+        d.type = CameraType::Turntable;
+        d.degrees = c.number("degrees", d.degrees, -36000, 36000);
+        d.startDegrees = c.number("start", d.startDegrees, -36000, 36000);
+        d.elevationDegrees = c.number("elevation", d.elevationDegrees, -89, 89);
+        d.margin = c.number("margin", d.margin, 0.1, 100);
+    } else if (type == "keyframed") {
+        d.type = CameraType::Keyframed;
+        d.up = c.direction("up", d.up);
+        if (!c.has("keys")) c.fail("keys", "missing; a keyframed camera needs at least one key");
+        c.array("keys", [&](ObjectReader& k, int i) {
+            CameraKey key;
+            key.frame = k.number("frame", 0, -HUGE_VAL, HUGE_VAL);
+            if (!k.has("frame")) k.fail("frame", "missing");
+            key.eye = k.vec3("eye", key.eye);
+            key.target = k.vec3("target", key.target);
+            key.fovDegrees = k.number("fov", d.fovDegrees, 1, 170);
+            key.lens = readLens(k, k.has("fov") ? std::nullopt : d.lens);  // a key's fov overrides the camera's lens
+            if (i > 0 && key.frame <= d.keys.back().frame) k.fail("frame", "key frames must increase");
+            checkCameraSpan(k, key.eye, key.target);
+            if ((key.eye - key.target).norm() < 1e-9) k.fail("target", "must differ from eye");
+            if ((key.eye - key.target).normalized().cross(d.up).norm() < 1e-6)
+                k.fail("eye", "the view direction must not be parallel to up");
+            d.keys.push_back(key);
+        });
+        if (d.keys.empty()) c.fail("keys", "needs at least one key");
+    } else {
+        d.type = CameraType::LookAt;
+        d.eye = c.vec3("eye", d.eye);
+        d.target = c.vec3("target", d.target);
+        d.up = c.direction("up", d.up);
+        checkCameraSpan(c, d.eye, d.target);
+        if ((d.eye - d.target).norm() < 1e-9) c.fail("target", "must differ from eye");
+        if ((d.eye - d.target).normalized().cross(d.up).norm() < 1e-6)
+            c.fail("up", "must not be parallel to the view direction");
+    }
+}
+
+/// render.contact: how contacts are highlighted.
+void readContactHighlight(ObjectReader& c, RenderDesc& d) {
+    d.contactMode = c.choiceOf("mode", ContactHighlightMode::Depth,
+                               {{"off", ContactHighlightMode::Off},
+                                {"depth", ContactHighlightMode::Depth},
+                                {"recent", ContactHighlightMode::Recent}});
+    d.contactDepthMax = c.number("depth_max", 0, 0, HUGE_VAL);
+    d.contactFadeFrames = c.integer("fade_frames", d.contactFadeFrames, 1, 100000);
+    d.contactLowSet = c.has("low");
+    d.contactLow = c.color("low", d.contactLow);
+    d.contactHighSet = c.has("high");
+    d.contactHigh = c.color("high", d.contactHigh);
+    d.contactSpread = c.integer("spread", d.contactSpread, 0, 16);
+    d.contactFootprint = c.boolean("footprint", d.contactFootprint);
+    d.contactGlow = c.number("glow", d.contactGlow, 0, 1);
+}
+
+/// render.pins: true, false or {"show", "color", "point_size"}.
+void readPinDisplay(ObjectReader& g, RenderDesc& d) {
+    if (g.has("pins")) {
+        const Json* v = g.get("pins");
+        if (v->is_boolean()) {
+            d.pins = v->get<bool>();
+        } else if (!v->is_object()) {
+            g.fail("pins",
+                   "expected true, false or an object {\"show\", \"color\", \"point_size\"}, got " + describe(*v));
+        } else {
+            g.object("pins", [&](ObjectReader& p) {
+                d.pins = p.boolean("show", true);
+                d.pinColour = p.color("color", d.pinColour);
+                d.pinPointSize = p.number("point_size", d.pinPointSize, 1, 64);
+            });
+        }
+    }
+}
+
+/// render.overlays: the lattice's points and the GLN loops drawn over the frame.
+void readOverlays(ObjectReader& o, RenderDesc& d) {
+    d.overlayLattice = o.boolean("lattice", d.overlayLattice);
+    d.overlayLatticeSet = o.choiceOf("lattice_set", d.overlayLatticeSet,
+                                     {{"boundary", LatticeDotSet::Boundary}, {"all", LatticeDotSet::All}});
+    d.overlayLatticeColour = o.color("lattice_color", d.overlayLatticeColour);
+    d.overlayPointSize = o.number("point_size", d.overlayPointSize, 1, 64);
+    d.overlayGlnLoops = o.boolean("gln_loops", d.overlayGlnLoops);
+    d.overlayGlnLoopSet = o.choiceOf(
+        "gln_loop_set", d.overlayGlnLoopSet,
+        {{"contact", GlnLoopSet::Contact}, {"all", GlnLoopSet::All}, {"coarse", GlnLoopSet::Coarse}});
+    d.overlayGlnColour = o.color("gln_color", d.overlayGlnColour);
+    d.overlayLineWidth = o.number("line_width", d.overlayLineWidth, 1, 64);
+}
+
+/// render.
+void readRender(ObjectReader& g, RenderDesc& d) {
+    d.width = g.integer("width", d.width, 16, 16384);
+    d.height = g.integer("height", d.height, 16, 16384);
+    d.supersample = g.integer("supersample", d.supersample, 1, 4);
+    d.background = g.color("background", d.background);
+    d.transparent = g.boolean("transparent", d.transparent);
+    d.ground = g.boolean("ground", d.ground);
+    d.groundGiven = g.has("ground");
+    d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
+    d.format = g.choiceOf("format", d.format, {{"png", RenderDesc::Format::Png}, {"exr", RenderDesc::Format::Exr}});
+    if (d.format == RenderDesc::Format::Exr && g.has("bit_depth"))
+        g.fail("bit_depth", "applies to PNG frames (EXR frames are half float)");
+    d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
+    readLights(g, d.lights);
+    d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);
+    d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);
+    if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
+    g.object("contact", [&](ObjectReader& c) { readContactHighlight(c, d); });
+    readPinDisplay(g, d);
+    g.object("overlays", [&](ObjectReader& o) { readOverlays(o, d); });
+    if (static_cast<long long>(d.width) * d.supersample > 16384 ||
+        static_cast<long long>(d.height) * d.supersample > 16384)
+        g.fail("supersample", "width and height times supersample must stay within 16384 (the GL limit)");
+}
+
+}  // namespace
+
+SceneDesc parseScene(const std::string& text, const fs::path& path) {
+    const std::string file = path.string();
+    const Json root = parseJson(text, file);
     const fs::path sceneDir = fs::absolute(path).parent_path();
     SceneDesc s;
     s.path = file;
@@ -445,156 +857,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
         s.collision.restitution = c.number("restitution", s.collision.restitution, 0, 1);
     });
 
-    r.array("objects", [&](ObjectReader& o, int i) {
-        ObjectDesc d;
-        d.name = o.string("name", "object" + std::to_string(i));
-        limitNameLength(o, d.name, "mesh cache files");
-        bool hasMesh = o.has("mesh"), hasPrim = o.has("primitive");
-        if (hasMesh == hasPrim) o.fail("", "give exactly one of 'mesh' (a file) or 'primitive'");
-        if (hasMesh) {
-            d.meshPath = resolveInput(sceneDir, o.string("mesh", "")).string();
-            d.meshName = o.string("mesh_name", "");
-        }
-        o.object("primitive", [&](ObjectReader& p) {
-            d.isPrimitive = true;
-            std::string type = p.choice("type", "", {"sphere", "box", "torus", "capsule"});
-            PrimitiveDesc& pd = d.primitive;
-            if (type == "sphere") {
-                pd.type = PrimitiveType::Sphere;
-                pd.radius = p.number("radius", 0.5, 0, HUGE_VAL, true);
-            } else if (type == "box") {
-                pd.type = PrimitiveType::Box;
-                pd.size = p.vec3("size", Vec3::Ones());
-                for (int k = 0; k < 3; ++k)
-                    if (!(pd.size[k] > 0)) p.fail("size[" + std::to_string(k) + "]", "expected a positive edge length");
-            } else if (type == "torus") {
-                pd.type = PrimitiveType::Torus;
-                pd.majorRadius = p.number("major_radius", 0.5, 0, HUGE_VAL, true);
-                pd.minorRadius = p.number("minor_radius", 0.2, 0, HUGE_VAL, true);
-                if (pd.minorRadius >= pd.majorRadius)
-                    p.fail("minor_radius", "must be smaller than major_radius (a torus with no hole)");
-            } else {
-                pd.type = PrimitiveType::Capsule;
-                pd.radius = p.number("radius", 0.3, 0, HUGE_VAL, true);
-                pd.height = p.number("height", 1.0, 0, HUGE_VAL, false);
-            }
-        });
-        o.object("transform", [&](ObjectReader& t) {
-            d.transform = readTransform(t);
-            if (d.isPrimitive && t.has("units"))
-                t.fail("units", "applies to a mesh file (a primitive is in metres; use scale)");
-        });
-        readVoxel(o, d.voxel);
-        d.color = o.color("color", d.color);
-        d.deformable = o.boolean("deformable", true);
-        o.object("material", [&](ObjectReader& m) {
-            MaterialDesc& mat = d.material;
-            // The preset first (jelly is MaterialDesc's default), then the keys given override it.
-            const std::string preset = m.choice("preset", "jelly", {"jelly", "putty", "goo"});
-            if (preset == "goo") {
-                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
-                mat.stiffness = 0;
-                mat.wobbles = 0;
-                mat.damping = 0;
-                mat.viscosity = 1;
-            } else if (preset == "putty") {
-                mat.yield = 0.1;
-                mat.wobbles = 1;
-            }
-            const int ways = int(m.has("stiffness")) + int(m.has("wobble_hz")) + int(m.has("sag"));
-            if (ways > 1) m.fail(m.has("sag") ? "sag" : "wobble_hz", "give one of 'stiffness', 'wobble_hz' and 'sag'");
-            if (m.has("damping") && m.has("wobbles")) m.fail("wobbles", "give 'damping' or 'wobbles', not both");
-            mat.density = m.number("density", mat.density, 0, HUGE_VAL, true);
-            mat.solver = m.choiceOf("solver", mat.solver,
-                                    {{"chain", MaterialDesc::Solver::Chain}, {"one", MaterialDesc::Solver::One}});
-            if (m.has("stiffness")) {
-                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Value;
-                mat.stiffness = m.number("stiffness", 0, 0, 1e8);
-            } else if (m.has("wobble_hz")) {
-                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::WobbleHz;
-                mat.wobbleHz = m.number("wobble_hz", 0, 0, 1000, true);
-            } else if (m.has("sag")) {
-                mat.stiffnessFrom = MaterialDesc::StiffnessFrom::Sag;
-                mat.sag = m.number("sag", 0, 0.001, 10);
-            }
-            if (m.has("damping")) {
-                mat.damping = m.number("damping", mat.damping, 0, 1e6);
-                mat.wobbles = 0;
-            } else if (m.has("wobbles")) {
-                mat.wobbles = m.number("wobbles", 0, 0, 1000, true);
-            }
-            const bool goo = mat.stiffnessFrom == MaterialDesc::StiffnessFrom::Value && mat.stiffness == 0;
-            if (goo) mat.wobbles = 0;  // nothing wobbles: `damping` (default 1) as given
-            if (goo && m.has("wobbles")) m.fail("wobbles", "needs a stiffness (goo does not wobble): give 'damping'");
-            mat.viscosity = m.number("viscosity", mat.viscosity, 0, 1e6);
-            mat.yield = m.number("yield", mat.yield, 0, 10);
-            if (mat.yield > 0 && goo)
-                m.fail("yield", "needs a 'stiffness' > 0 (goo has no rest shape to yield; it flows at any strain)");
-            mat.volumeTolerance = m.number("volume_tolerance", mat.volumeTolerance, 1e-12, 0.1);
-            mat.maxDeltaGamma = m.number("max_delta_gamma", mat.maxDeltaGamma, 0, 1, true);
-            mat.pinnedLoad = m.boolean("pinned_load", mat.pinnedLoad);
-            mat.reparametrise = m.boolean("reparametrise", mat.reparametrise);
-        });
-        d.velocity = o.vec3("velocity", d.velocity);
-        d.spinDegrees = o.vec3("spin", d.spinDegrees);
-        o.object("pin", [&](ObjectReader& p) {
-            const bool box = p.has("min") || p.has("max"), ball = p.has("centre") || p.has("radius"),
-                       group = p.has("group");
-            if (int(box) + int(ball) + int(group) != 1)
-                p.fail("", "give a box ('min' and 'max'), a ball ('centre' and 'radius') or a vertex group ('group')");
-            if (group) {
-                if (d.isPrimitive) p.fail("group", "a vertex group needs a mesh object (a primitive has none)");
-                d.pin.kind = PinDesc::Kind::Group;
-                d.pin.group = p.string("group", "");
-                if (d.pin.group.empty())
-                    p.fail("group", "expected the name of a mesh or node in the object's mesh file");
-            } else if (box) {
-                d.pin.kind = PinDesc::Kind::Box;
-                d.pin.min = p.vec3("min", Vec3::Zero());
-                d.pin.max = p.vec3("max", Vec3::Zero());
-                for (int k = 0; k < 3; ++k)
-                    if (!(d.pin.max[k] >= d.pin.min[k])) p.fail("max", "must be >= min in every coordinate");
-            } else {
-                d.pin.kind = PinDesc::Kind::Ball;
-                d.pin.centre = p.vec3("centre", Vec3::Zero());
-                d.pin.radius = p.number("radius", 0, 0, HUGE_VAL, true);
-            }
-        });
-        s.objects.push_back(std::move(d));
-    });
-    r.array("curves", [&](ObjectReader& c, int i) {
-        CurveDesc d;
-        d.name = c.string("name", "curve" + std::to_string(i));
-        const bool hasFile = c.has("file"), hasRing = c.has("ring");
-        if (hasFile == hasRing) c.fail("", "give exactly one of 'file' (a curve file) or 'ring'");
-        if (hasFile) d.curvePath = resolveInput(sceneDir, c.string("file", "")).string();
-        c.object("ring", [&](ObjectReader& g) {
-            d.centre = g.vec3("centre", d.centre);
-            d.normal = g.direction("normal", d.normal);
-            d.radius = g.number("radius", d.radius, 0, HUGE_VAL, true);
-            d.segments = g.integer("segments", d.segments, 3, 10000000);
-        });
-        if (const Json* m = c.get("motion")) {
-            if (!m->is_array() || m->empty())
-                c.fail("motion", "expected an array of [frame, [x, y, z]] keys, got " + describe(*m));
-            for (std::size_t k = 0; k < m->size(); ++k) {
-                const Json& e = (*m)[k];
-                const std::string key = "motion[" + std::to_string(k) + "]";
-                if (!e.is_array() || e.size() != 2 || !e[1].is_array() || e[1].size() != 3)
-                    c.fail(key, "expected a [frame, [x, y, z]] key, got " + describe(e));
-                const Real f = c.checkNumber(key + "[0]", e[0], -HUGE_VAL, HUGE_VAL, false);
-                Vec3 v;
-                for (int a = 0; a < 3; ++a)
-                    v[a] = c.checkNumber(key + "[1][" + std::to_string(a) + "]", e[1][static_cast<std::size_t>(a)],
-                                         -HUGE_VAL, HUGE_VAL, false);
-                if (!d.motion.empty() && f <= d.motion.back().first) c.fail(key, "key frames must increase");
-                d.motion.push_back({f, v});
-            }
-        }
-        d.color = c.color("color", d.color);
-        d.tubeRadius = c.number("tube_radius", d.tubeRadius, 0, HUGE_VAL, true);
-        s.curves.push_back(std::move(d));
-    });
+
+    r.array("objects", [&](ObjectReader& o, int i) { s.objects.push_back(readObject(o, i, sceneDir)); });
+    r.array("curves", [&](ObjectReader& c, int i) { s.curves.push_back(readCurve(c, i, sceneDir)); });
     for (std::size_t i = 0; i < s.curves.size(); ++i)
         for (std::size_t j = 0; j < i; ++j)
             if (s.curves[i].name == s.curves[j].name)
@@ -621,226 +886,10 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
                 throw InputError(file, "objects[" + std::to_string(i) + "].name",
                                  "duplicate object name \"" + s.objects[i].name + "\"");
 
-    r.array("forces", [&](ObjectReader& f, int) {
-        ForceTerm d;
-        std::string type = f.choice("type", "", {"gravity", "attractor", "vortex", "burst", "wind", "torsion"});
-        if (type == "gravity") {
-            d.kind = ForceKind::Gravity;
-            d.direction = f.direction("direction", d.direction);
-            d.strength = readKeyframes(f, "strength", 9.81);
-        } else if (type == "attractor") {
-            d.kind = ForceKind::Attractor;
-            d.centre = f.vec3("position", d.centre);
-            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
-            d.softening = f.number("softening", 0.25 * d.radius, 0, HUGE_VAL, true);
-            d.falloff = f.number("falloff", 2, 0, 4);
-            d.strength = readKeyframes(f, "strength", 1);
-        } else if (type == "vortex") {
-            d.kind = ForceKind::Vortex;
-            d.centre = f.vec3("position", d.centre);
-            d.axis = f.direction("axis", d.axis);
-            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
-            d.falloff = f.number("falloff", 1, 0, 4);
-            d.strength = readKeyframes(f, "strength", 1);
-        } else if (type == "torsion") {
-            d.kind = ForceKind::Torsion;
-            d.centre = f.vec3("position", d.centre);
-            d.axis = f.direction("axis", d.axis);
-            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
-            d.strength = readKeyframes(f, "strength", 1);
-        } else if (type == "burst") {
-            d.kind = ForceKind::Burst;
-            d.centre = f.vec3("position", d.centre);
-            d.radius = f.number("radius", 1, 0, HUGE_VAL, true);
-            d.strength = readKeyframes(f, "strength", 1);
-        } else {
-            d.kind = ForceKind::Wind;
-            d.direction = f.direction("direction", Vec3::UnitX());
-            d.strength = readKeyframes(f, "strength", 1);
-            d.turbulence = f.number("turbulence", 0, 0, HUGE_VAL);
-            d.scale = f.number("scale", 1, 0, HUGE_VAL, true);
-            d.seed = static_cast<unsigned>(f.integer("seed", 1, 0, 1 << 30));
-            d.modes = f.integer("modes", 32, 1, 4096);
-        }
-        s.forces.push_back(d);
-    });
-
-    r.array("colliders", [&](ObjectReader& c, int) {
-        ColliderDesc d;
-        std::string type = c.choice("type", "", {"ground", "sphere", "mesh", "levelset"});
-        if (type == "ground") {
-            d.type = ColliderType::Ground;
-            d.height = c.number("height", 0, -HUGE_VAL, HUGE_VAL);
-        } else if (type == "sphere") {
-            d.type = ColliderType::Sphere;
-            d.centre = c.vec3("centre", d.centre);
-            d.radius = c.number("radius", 1, 0, HUGE_VAL, true);
-        } else if (type == "levelset") {
-            // Loaded here, so a bad file stops every command before anything is written.
-            d.type = ColliderType::LevelSet;
-            if (!c.has("file")) c.fail("file", "missing; a levelset collider needs a .vdb file");
-            d.levelSetPath = resolveInput(sceneDir, c.string("file", "")).string();
-            d.levelSetGrid = c.string("grid", "");
-            c.object("transform", [&](ObjectReader& t) {
-                d.transform = readTransform(t);
-                if (t.has("units")) t.fail("units", "applies to a mesh file (a level set is in the file's metres)");
-                const Vec3& k = d.transform.scale;
-                if (k.x() != k.y() || k.x() != k.z() || !(k.x() > 0))
-                    t.fail("scale", "a levelset collider takes a positive uniform scale only (a number)");
-            });
-            try {
-                d.levelSet = std::make_shared<const SdfGrid>(readVdbLevelSet(d.levelSetPath, d.levelSetGrid));
-            } catch (const InputError& e) {
-                c.fail("file", e.what());
-            }
-        } else {
-            // Imported and turned into a signed-distance grid here, so a bad mesh stops every
-            // command before anything is written.
-            d.type = ColliderType::Mesh;
-            if (!c.has("mesh")) c.fail("mesh", "missing; a mesh collider needs a mesh file");
-            d.meshPath = resolveInput(sceneDir, c.string("mesh", "")).string();
-            c.object("transform", [&](ObjectReader& t) { d.transform = readTransform(t); });
-            d.meshVoxelSize = c.number("voxel_size", 0, 0, HUGE_VAL);
-            const Mat3 A = d.transform.linear();
-            if (!(std::abs(A.determinant()) > 0)) c.fail("transform", "the transform flattens the mesh (a zero scale)");
-            try {
-                MeshImportOptions opts;
-                opts.unitScale = d.transform.units;
-                TriangleMesh mesh = importMesh(d.meshPath, opts);
-                transformMesh(mesh, A, d.transform.translate);
-                if (const std::string w = unlikelySizeWarning(mesh, "mesh collider " + d.meshPath); !w.empty())
-                    logWarning(w);
-                const MeshReport report = analyseMesh(mesh);
-                if (!report.closed || !report.manifold)
-                    throw InputError(d.meshPath, "",
-                                     "a mesh collider must be closed and consistently oriented (" +
-                                         std::to_string(report.boundaryEdges) + " open edges, " +
-                                         std::to_string(report.nonManifoldEdges) +
-                                         " non-manifold edges): its inside is what bodies are kept out of");
-                // importMesh turned inside-out parts around; what is left without volume is flat
-                if (!(report.signedVolume > 0))
-                    throw InputError(d.meshPath, "", "the mesh encloses no volume (it is flat)");
-                const Vec3 extent = report.bounds.size();
-                const Real voxel = d.meshVoxelSize > 0 ? d.meshVoxelSize : extent.maxCoeff() / 128;
-                d.levelSet = std::make_shared<const SdfGrid>(meshLevelSet(mesh, voxel, 3, d.meshPath));
-                d.worldMesh = std::make_shared<const TriangleMesh>(std::move(mesh));
-            } catch (const InputError& e) {
-                c.fail("mesh", e.what());
-            }
-        }
-        d.friction = c.number("friction", d.friction, 0, 1);
-        d.restitution = c.number("restitution", d.restitution, 0, 1);
-        s.colliders.push_back(d);
-    });
-
-    r.object("camera", [&](ObjectReader& c) {
-        CameraDesc& d = s.camera;
-        std::string type = c.choice("type", "turntable", {"turntable", "look_at", "keyframed"});
-        d.fovDegrees = c.number("fov", d.fovDegrees, 1, 170);
-        d.lens = readLens(c, std::nullopt);
-        if (type == "turntable") {
-            d.type = CameraType::Turntable;
-            d.degrees = c.number("degrees", d.degrees, -36000, 36000);
-            d.startDegrees = c.number("start", d.startDegrees, -36000, 36000);
-            d.elevationDegrees = c.number("elevation", d.elevationDegrees, -89, 89);
-            d.margin = c.number("margin", d.margin, 0.1, 100);
-        } else if (type == "keyframed") {
-            d.type = CameraType::Keyframed;
-            d.up = c.direction("up", d.up);
-            if (!c.has("keys")) c.fail("keys", "missing; a keyframed camera needs at least one key");
-            c.array("keys", [&](ObjectReader& k, int i) {
-                CameraKey key;
-                key.frame = k.number("frame", 0, -HUGE_VAL, HUGE_VAL);
-                if (!k.has("frame")) k.fail("frame", "missing");
-                key.eye = k.vec3("eye", key.eye);
-                key.target = k.vec3("target", key.target);
-                key.fovDegrees = k.number("fov", d.fovDegrees, 1, 170);
-                key.lens = readLens(k, k.has("fov") ? std::nullopt : d.lens);  // a key's fov overrides the camera's lens
-                if (i > 0 && key.frame <= d.keys.back().frame) k.fail("frame", "key frames must increase");
-                checkCameraSpan(k, key.eye, key.target);
-                if ((key.eye - key.target).norm() < 1e-9) k.fail("target", "must differ from eye");
-                if ((key.eye - key.target).normalized().cross(d.up).norm() < 1e-6)
-                    k.fail("eye", "the view direction must not be parallel to up");
-                d.keys.push_back(key);
-            });
-            if (d.keys.empty()) c.fail("keys", "needs at least one key");
-        } else {
-            d.type = CameraType::LookAt;
-            d.eye = c.vec3("eye", d.eye);
-            d.target = c.vec3("target", d.target);
-            d.up = c.direction("up", d.up);
-            checkCameraSpan(c, d.eye, d.target);
-            if ((d.eye - d.target).norm() < 1e-9) c.fail("target", "must differ from eye");
-            if ((d.eye - d.target).normalized().cross(d.up).norm() < 1e-6)
-                c.fail("up", "must not be parallel to the view direction");
-        }
-    });
-
-    r.object("render", [&](ObjectReader& g) {
-        RenderDesc& d = s.render;
-        d.width = g.integer("width", d.width, 16, 16384);
-        d.height = g.integer("height", d.height, 16, 16384);
-        d.supersample = g.integer("supersample", d.supersample, 1, 4);
-        d.background = g.color("background", d.background);
-        d.transparent = g.boolean("transparent", d.transparent);
-        d.ground = g.boolean("ground", d.ground);
-        d.groundGiven = g.has("ground");
-        d.bitDepth = g.integer("bit_depth", d.bitDepth, 8, 16);
-        d.format = g.choiceOf("format", d.format, {{"png", RenderDesc::Format::Png}, {"exr", RenderDesc::Format::Exr}});
-        if (d.format == RenderDesc::Format::Exr && g.has("bit_depth"))
-            g.fail("bit_depth", "applies to PNG frames (EXR frames are half float)");
-        d.creaseDegrees = g.number("crease_degrees", d.creaseDegrees, 0, 180);
-        readLights(g, d.lights);
-        d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);
-        d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);
-        if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
-        g.object("contact", [&](ObjectReader& c) {
-            d.contactMode = c.choiceOf("mode", ContactHighlightMode::Depth,
-                                       {{"off", ContactHighlightMode::Off},
-                                        {"depth", ContactHighlightMode::Depth},
-                                        {"recent", ContactHighlightMode::Recent}});
-            d.contactDepthMax = c.number("depth_max", 0, 0, HUGE_VAL);
-            d.contactFadeFrames = c.integer("fade_frames", d.contactFadeFrames, 1, 100000);
-            d.contactLowSet = c.has("low");
-            d.contactLow = c.color("low", d.contactLow);
-            d.contactHighSet = c.has("high");
-            d.contactHigh = c.color("high", d.contactHigh);
-            d.contactSpread = c.integer("spread", d.contactSpread, 0, 16);
-            d.contactFootprint = c.boolean("footprint", d.contactFootprint);
-            d.contactGlow = c.number("glow", d.contactGlow, 0, 1);
-        });
-        if (g.has("pins")) {
-            const Json* v = g.get("pins");
-            if (v->is_boolean()) {
-                d.pins = v->get<bool>();
-            } else if (!v->is_object()) {
-                g.fail("pins",
-                       "expected true, false or an object {\"show\", \"color\", \"point_size\"}, got " + describe(*v));
-            } else {
-                g.object("pins", [&](ObjectReader& p) {
-                    d.pins = p.boolean("show", true);
-                    d.pinColour = p.color("color", d.pinColour);
-                    d.pinPointSize = p.number("point_size", d.pinPointSize, 1, 64);
-                });
-            }
-        }
-        g.object("overlays", [&](ObjectReader& o) {
-            d.overlayLattice = o.boolean("lattice", d.overlayLattice);
-            d.overlayLatticeSet = o.choiceOf("lattice_set", d.overlayLatticeSet,
-                                             {{"boundary", LatticeDotSet::Boundary}, {"all", LatticeDotSet::All}});
-            d.overlayLatticeColour = o.color("lattice_color", d.overlayLatticeColour);
-            d.overlayPointSize = o.number("point_size", d.overlayPointSize, 1, 64);
-            d.overlayGlnLoops = o.boolean("gln_loops", d.overlayGlnLoops);
-            d.overlayGlnLoopSet = o.choiceOf(
-                "gln_loop_set", d.overlayGlnLoopSet,
-                {{"contact", GlnLoopSet::Contact}, {"all", GlnLoopSet::All}, {"coarse", GlnLoopSet::Coarse}});
-            d.overlayGlnColour = o.color("gln_color", d.overlayGlnColour);
-            d.overlayLineWidth = o.number("line_width", d.overlayLineWidth, 1, 64);
-        });
-        if (static_cast<long long>(d.width) * d.supersample > 16384 ||
-            static_cast<long long>(d.height) * d.supersample > 16384)
-            g.fail("supersample", "width and height times supersample must stay within 16384 (the GL limit)");
-    });
+    r.array("forces", [&](ObjectReader& f, int) { s.forces.push_back(readForce(f)); });
+    r.array("colliders", [&](ObjectReader& c, int) { s.colliders.push_back(readCollider(c, sceneDir)); });
+    r.object("camera", [&](ObjectReader& c) { readCamera(c, s.camera); });
+    r.object("render", [&](ObjectReader& g) { readRender(g, s.render); });
 
     std::string outDir = "out/" + s.name;
     r.object("output", [&](ObjectReader& o) {
