@@ -996,47 +996,40 @@ struct Renderer::Impl {
         return out;
     }
 
-    Image render(const FrameScene& scene, const Camera& camera, LinearImage* linear) {
-        if (linear && !settings.linearPlanes)
-            throw std::logic_error("Renderer::render: linear planes need RenderSettings::linearPlanes");
-        auto t0 = std::chrono::steady_clock::now();
-        context.makeCurrent();
-        const int w = settings.width, h = settings.height, factor = settings.supersample;
-        ensureTargets(w, h, factor);
+    static bool seeThrough(const DrawMesh& m) { return std::clamp(m.opacity, 0.0, 1.0) < 1; }
 
-        // Scene bounds (meshes only) and the upload of positions and normals.
+    /// What a frame's passes share: the scene's bounds, the floor, the depth range and the lights.
+    struct FrameSetup {
         Box3 bounds;
-        while (meshes.size() < scene.meshes.size()) meshes.emplace_back();
-        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
-            for (const Vec3& p : scene.meshes[i].positions) bounds.extend(p);
-            uploadMesh(meshes[i], scene.meshes[i]);
-        }
-        for (std::size_t i = scene.meshes.size(); i < meshes.size(); ++i) meshes[i].indexCount = 0;
-        timings.prepareMs = msSince(t0);
-        t0 = std::chrono::steady_clock::now();
-        const bool haveGeometry = !bounds.empty();
-        const Vec3 centre = haveGeometry ? bounds.centre() : Vec3::Zero();
-        Real radius = haveGeometry ? 0.5 * bounds.size().norm() : 1.0;
-        if (!(radius > 0)) radius = 1e-3;
+        bool haveGeometry = false;
+        Vec3 centre = Vec3::Zero();
+        Real radius = 1;
+        Real groundY = 0, fadeInner = 0, fadeOuter = 0;
+        bool drawGround = false;
+        /// The floor shaded once per output pixel into its own target (it can hide no mesh).
+        bool groundAtOutput = false;
+        bool haveDecal = false;
+        std::array<Real, 4> decalRect{0, 0, 1, 1};
+        Real nearZ = 0, farZ = 0;
+        Mat4 clipFromWorld = Mat4::Identity();
+        Lights lights;
+    };
 
-        Lights lights = worldLights(camera);
-
-        // Ground: a quad at the given height, else under the lowest point, fading out radially.
-        const Real groundY = scene.groundHeight ? *scene.groundHeight : haveGeometry ? bounds.min.y() : 0.0;
-        const Real fadeInner = 1.2 * radius, fadeOuter = 4.0 * radius;
-        const bool drawGround = scene.groundPlane && haveGeometry;
-
-        // Near and far planes from the scene (the ground included).
+    /// The near and far planes from the scene (the ground and the overlays included), where the
+    /// camera leaves them to the renderer.
+    void depthRange(const FrameScene& scene, const Camera& camera, FrameSetup& f) const {
+        const int w = settings.width, h = settings.height;
         const Mat4 viewFromWorld = camera.viewFromWorld();
-        Real nearZ = camera.nearClip, farZ = camera.farClip;
-        if (nearZ <= 0 || farZ <= 0) {
+        f.nearZ = camera.nearClip;
+        f.farZ = camera.farClip;
+        if (f.nearZ <= 0 || f.farZ <= 0) {
             Real minDepth = std::numeric_limits<Real>::infinity(), maxDepth = 0;
             auto depthOf = [&](const Vec3& p) { return -(viewFromWorld * p.homogeneous()).z(); };
-            if (haveGeometry) {
+            if (f.haveGeometry) {
                 for (int c = 0; c < 8; ++c) {
-                    const Vec3 corner((c & 1) ? bounds.max.x() : bounds.min.x(),
-                                      (c & 2) ? bounds.max.y() : bounds.min.y(),
-                                      (c & 4) ? bounds.max.z() : bounds.min.z());
+                    const Vec3 corner((c & 1) ? f.bounds.max.x() : f.bounds.min.x(),
+                                      (c & 2) ? f.bounds.max.y() : f.bounds.min.y(),
+                                      (c & 4) ? f.bounds.max.z() : f.bounds.min.z());
                     const Real d = depthOf(corner);
                     minDepth = std::min(minDepth, d);
                     maxDepth = std::max(maxDepth, d);
@@ -1052,10 +1045,10 @@ struct Renderer::Impl {
                 for (const Vec3& p : l.points) overlayDepth(p);
             for (const PointSet& ps : scene.points)
                 for (const Vec3& p : ps.points) overlayDepth(p);
-            if (drawGround) {
+            if (f.drawGround) {
                 for (int c = 0; c < 4; ++c) {
-                    const Vec3 corner(centre.x() + ((c & 1) ? fadeOuter : -fadeOuter), groundY,
-                                      centre.z() + ((c & 2) ? fadeOuter : -fadeOuter));
+                    const Vec3 corner(f.centre.x() + ((c & 1) ? f.fadeOuter : -f.fadeOuter), f.groundY,
+                                      f.centre.z() + ((c & 2) ? f.fadeOuter : -f.fadeOuter));
                     maxDepth = std::max(maxDepth, depthOf(corner));
                 }
             }
@@ -1063,7 +1056,7 @@ struct Renderer::Impl {
             // nearest the eye where its side edges (the corner rays) cross it. Without this a
             // low camera clipped the floor in front of it, a band of background at the bottom.
             Real groundNear = std::numeric_limits<Real>::infinity();
-            if (drawGround) {
+            if (f.drawGround) {
                 const Mat4 worldFromView = viewFromWorld.inverse();
                 const Real ty = std::tan(0.5 * camera.fovYDegrees * 3.14159265358979323846 / 180);
                 const Real tx = ty * static_cast<Real>(w) / h;
@@ -1071,44 +1064,40 @@ struct Renderer::Impl {
                     const Vec3 viewDir((c & 1) ? tx : -tx, (c & 2) ? ty : -ty, -1);  // view depth 1
                     const Vec3 dir = worldFromView.block<3, 3>(0, 0) * viewDir;
                     if (dir.y() == 0) continue;
-                    const Real t = (groundY - camera.eye.y()) / dir.y();  // = the hit's view depth
+                    const Real t = (f.groundY - camera.eye.y()) / dir.y();  // = the hit's view depth
                     if (t > 0) groundNear = std::min(groundNear, t);
                 }
             }
-            if (farZ <= 0) farZ = std::max(maxDepth * 1.05, 1e-3);
-            if (nearZ <= 0) nearZ = std::max(std::min(0.5 * minDepth, 0.9 * groundNear), 1e-3 * farZ);
-            if (!(nearZ < farZ)) nearZ = 1e-3 * farZ;
+            if (f.farZ <= 0) f.farZ = std::max(maxDepth * 1.05, 1e-3);
+            if (f.nearZ <= 0) f.nearZ = std::max(std::min(0.5 * minDepth, 0.9 * groundNear), 1e-3 * f.farZ);
+            if (!(f.nearZ < f.farZ)) f.nearZ = 1e-3 * f.farZ;
         }
-        const Real aspect = static_cast<Real>(w) / h;
-        const Mat4 clipFromWorld = camera.clipFromView(aspect, nearZ, farZ) * viewFromWorld;
+    }
 
-        glDisable(GL_BLEND);
-        glDisable(GL_CULL_FACE);
-        glDisable(GL_SCISSOR_TEST);
-
-        // 1. Shadow map from the key light: orthographic over the bounding sphere.
-        if (haveGeometry && lights.shadowLight >= 0) {
+    /// Pass 1: the shadow map from the key light, orthographic over the bounding sphere.
+    void shadowPass(const FrameScene& scene, FrameSetup& f) {
+        if (f.haveGeometry && f.lights.shadowLight >= 0) {
             Camera light;
-            light.eye = centre + 2.0 * radius * lights.keyDir;
-            light.target = centre;
-            light.up = std::abs(lights.keyDir.y()) > 0.99 ? Vec3::UnitZ() : Vec3::UnitY();
+            light.eye = f.centre + 2.0 * f.radius * f.lights.keyDir;
+            light.target = f.centre;
+            light.up = std::abs(f.lights.keyDir.y()) > 0.99 ? Vec3::UnitZ() : Vec3::UnitY();
             const Mat4 lightClipFromWorld =
-                orthographic(-radius, radius, -radius, radius, 0.0, 4.0 * radius) * light.viewFromWorld();
+                orthographic(-f.radius, f.radius, -f.radius, f.radius, 0.0, 4.0 * f.radius) * light.viewFromWorld();
             Mat4 bias = Mat4::Identity() * 0.5;
             bias(3, 3) = 1;
             bias.block<3, 1>(0, 3) = Vec3::Constant(0.5);
-            lights.shadowFromWorld = bias * lightClipFromWorld;
-            lights.shadows = true;
-            const Real texelWorld = 2.0 * radius / kShadowMapSize;
-            lights.shadowRadius = 1.0 / kShadowMapSize;  // 4 taps at +-1 texel: ~4-texel penumbra
-            lights.normalOffset = 1.5 * texelWorld;
-            // A light disc of angular radius theta widens a penumbra by tan(theta) per unit of
-            // distance behind its blocker on either side: the map spans 2 radius across and
-            // 4 radius in depth, so the filter radius is 2 tan(theta) per unit of map depth.
-            // The bounding sphere starts at depth 1/4 (the light sits 2 radius from its centre).
-            lights.penumbraPerDepth = 2.0 * std::tan(settings.shadowSoftness * 3.14159265358979323846 / 180);
-            lights.searchRadius = 64.0 / kShadowMapSize;
-            lights.blockerNear = 0.25;
+            f.lights.shadowFromWorld = bias * lightClipFromWorld;
+            f.lights.shadows = true;
+            const Real texelWorld = 2.0 * f.radius / kShadowMapSize;
+            f.lights.shadowRadius = 1.0 / kShadowMapSize;  // 4 taps at +-1 texel: ~4-texel penumbra
+            f.lights.normalOffset = 1.5 * texelWorld;
+            // A light disc of angular f.radius theta widens a penumbra by tan(theta) per unit of
+            // distance behind its blocker on either side: the map spans 2 f.radius across and
+            // 4 f.radius in depth, so the filter f.radius is 2 tan(theta) per unit of map depth.
+            // The bounding sphere starts at depth 1/4 (the light sits 2 f.radius from its f.centre).
+            f.lights.penumbraPerDepth = 2.0 * std::tan(settings.shadowSoftness * 3.14159265358979323846 / 180);
+            f.lights.searchRadius = 64.0 / kShadowMapSize;
+            f.lights.blockerNear = 0.25;
 
             glBindFramebuffer(GL_FRAMEBUFFER, shadowFbo);
             glViewport(0, 0, kShadowMapSize, kShadowMapSize);
@@ -1131,152 +1120,104 @@ struct Renderer::Impl {
             glDisable(GL_POLYGON_OFFSET_FILL);
         }
 
-        if (settings.profilePasses) {
-            glFinish();
-            timings.shadowMs = msSince(t0);
-        }
-        const auto tScene = std::chrono::steady_clock::now();
+    }
 
-        // 2. The scene at n x n resolution: premultiplied linear colour, alpha = coverage (and the
-        // contact matte, cleared to 0 with it).
-        glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
-        const GLenum bothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-        glDrawBuffers(settings.linearPlanes ? 2 : 1, bothTargets);
-        glViewport(0, 0, w * factor, h * factor);
-        glClearColor(0, 0, 0, 0);
-        glClearDepth(1.0);
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_LESS);
-        glDepthMask(GL_TRUE);
-        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-        if (softShadows) {
-            glActiveTexture(GL_TEXTURE3);
-            glBindTexture(GL_TEXTURE_2D, shadowDepth);
-            glBindSampler(3, depthSampler);
-        }
-        glActiveTexture(GL_TEXTURE0);
-        glBindTexture(GL_TEXTURE_2D, shadowDepth);
-
-        // Meshes first, so that early depth testing rejects the ground behind them. Closed,
-        // consistently oriented meshes cull their back faces (never visible; half the
-        // fragments); open ones are two-sided.
-        // See-through meshes (opacity < 1) are drawn by a second call, after the ground.
-        auto seeThrough = [](const DrawMesh& m) { return std::clamp(m.opacity, 0.0, 1.0) < 1; };
-        const bool anySeeThrough = std::any_of(scene.meshes.begin(), scene.meshes.end(), seeThrough);
-        auto drawMeshes = [&](bool seeThroughPass) {
-            const ShaderProgram* bound = nullptr;
-            for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
-                if (meshes[i].indexCount == 0) continue;
-                const DrawMesh& m = scene.meshes[i];
-                if (seeThrough(m) != seeThroughPass) continue;
-                const ShaderProgram& p = m.scalar.empty() ? meshPlainProgram : meshProgram;
-                if (bound != &p) {
-                    glUseProgram(p.id());
-                    setMat4(p, "uClipFromWorld", clipFromWorld);
-                    setLighting(p, lights);
-                    setInt(p, "uFootprint", 0);
-                    setVec3(p, "uEye", camera.eye);
-                    bound = &p;
-                }
-                setVec3(p, "uAlbedo", m.colour.cwiseMax(0.0).cwiseMin(1.0));
-                setFloat(p, "uOpacity", std::clamp(m.opacity, 0.0, 1.0));
-                if (!m.scalar.empty()) {
-                    setVec3(p, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
-                    setVec3(p, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));
-                    setFloat(p, "uRampMin", m.ramp.min);
-                    setFloat(p, "uRampGlow", std::clamp(m.ramp.glow, 0.0, 1.0));
-                    if (settings.linearPlanes)
-                        setInt(p, "uMatteAlongRamp", (m.ramp.low - m.colour).cwiseAbs().maxCoeff() < 1e-6 ? 1 : 0);
-                    const Real span = m.ramp.max - m.ramp.min;
-                    setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
-                }
-                drawTriangles(i, false);
-            }
-            glBindVertexArray(0);
-            glDisable(GL_CULL_FACE);
-            glCullFace(GL_BACK);
-        };
-        drawMeshes(false);
-
-        // With the eye above the ground plane and every mesh point above it, the ground can never
-        // hide a mesh, so it is shaded once per output pixel into its own target and composited
-        // under the supersampled meshes in the resolve: a quarter of the fragments at 2x2.
-        // Otherwise (eye below the plane, or a mesh reaching below a given ground height) it is
-        // drawn here, depth-tested, at n x n.
-        const bool groundAtOutput = drawGround && camera.eye.y() > groundY && bounds.min.y() >= groundY - 1e-3 * radius;
-        const bool haveDecal = drawGround && !scene.groundMarks.empty() && !settings.transparentBackground;
-        std::array<Real, 4> decalRect{0, 0, 1, 1};
-        if (haveDecal) {
-            glActiveTexture(GL_TEXTURE2);
-            decalRect = uploadGroundMarks(scene.groundMarks);
-            glActiveTexture(GL_TEXTURE0);
-        }
-        auto drawGroundCells = [&]() {
-            // Where shadows can fall: the bounding sphere projected along the key light onto
-            // the ground, an ellipse whose bounding box is the centre cell (plus the PCF reach).
-            const Vec3& k = lights.keyDir;
-            const Vec3 shadowCentre = centre - k * ((centre.y() - groundY) / k.y());
-            const Real reach = 1.05 * radius + 4.0 * lights.shadowRadius * radius +
-                               (softShadows ? 2.0 * lights.searchRadius * radius : 0.0);
-            const Real halfX = reach * std::sqrt(1 + (k.x() / k.y()) * (k.x() / k.y()));
-            const Real halfZ = reach * std::sqrt(1 + (k.z() / k.y()) * (k.z() / k.y()));
-            const Real outer[4] = {centre.x() - fadeOuter, centre.x() + fadeOuter, centre.z() - fadeOuter,
-                                   centre.z() + fadeOuter};
-            auto clampX = [&](Real v) { return std::clamp(v, outer[0], outer[1]); };
-            auto clampZ = [&](Real v) { return std::clamp(v, outer[2], outer[3]); };
-            const Real xs[4] = {outer[0], clampX(shadowCentre.x() - halfX), clampX(shadowCentre.x() + halfX), outer[1]};
-            const Real zs[4] = {outer[2], clampZ(shadowCentre.z() - halfZ), clampZ(shadowCentre.z() + halfZ), outer[3]};
-            float grid[16 * 3];
-            for (int j = 0; j < 4; ++j)
-                for (int i = 0; i < 4; ++i) {
-                    float* v = grid + (j * 4 + i) * 3;
-                    v[0] = static_cast<float>(xs[i]);
-                    v[1] = static_cast<float>(groundY);
-                    v[2] = static_cast<float>(zs[j]);
-                }
-            glBindBuffer(GL_ARRAY_BUFFER, groundVbo);
-            glBufferSubData(GL_ARRAY_BUFFER, 0, sizeof grid, grid);
-            glBindVertexArray(groundVao);
-            for (const ShaderProgram* program : {&groundPlainProgram, &groundProgram}) {
-                const ShaderProgram& p = *program;
+    /// The meshes of the scene pass: the opaque ones, or (seeThroughPass) those with opacity < 1.
+    /// Closed, consistently oriented meshes cull their back faces (never visible; half the
+    /// fragments); open ones are two-sided.
+    void drawMeshes(const FrameScene& scene, const Camera& camera, const FrameSetup& f, bool seeThroughPass) {
+        const ShaderProgram* bound = nullptr;
+        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+            if (meshes[i].indexCount == 0) continue;
+            const DrawMesh& m = scene.meshes[i];
+            if (seeThrough(m) != seeThroughPass) continue;
+            const ShaderProgram& p = m.scalar.empty() ? meshPlainProgram : meshProgram;
+            if (bound != &p) {
                 glUseProgram(p.id());
-                setMat4(p, "uClipFromWorld", clipFromWorld);
-                setLighting(p, lights);
-                setVec3(p, "uGroundCentre", centre);
-                setFloat(p, "uFadeInner", fadeInner);
-                setFloat(p, "uFadeOuter", fadeOuter);
-                setVec3(p, "uGroundAlbedo", Vec3::Constant(0.40));
-                setInt(p, "uCatcher", settings.transparentBackground ? 1 : 0);
-                setInt(p, "uFootprint", groundAtOutput ? 1 : 0);
-                setInt(p, "uDecal", 2);
-                setInt(p, "uHasDecal", haveDecal ? 1 : 0);
-                setFloat(p, "uDecalGlow", scene.groundMarkGlow);
-                glUniform4f(p.uniform("uDecalRect"), static_cast<float>(decalRect[0]), static_cast<float>(decalRect[1]),
-                            static_cast<float>(decalRect[2]), static_cast<float>(decalRect[3]));
-                if (program == &groundPlainProgram) {
-                    glDrawElements(GL_TRIANGLES, kGroundOuterIndices, GL_UNSIGNED_INT, nullptr);
-                } else {
-                    glDrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT,
-                                   reinterpret_cast<const void*>(kGroundOuterIndices * sizeof(unsigned)));
-                }
+                setMat4(p, "uClipFromWorld", f.clipFromWorld);
+                setLighting(p, f.lights);
+                setInt(p, "uFootprint", 0);
+                setVec3(p, "uEye", camera.eye);
+                bound = &p;
             }
-            glBindVertexArray(0);
-        };
-        if (drawGround && !groundAtOutput) drawGroundCells();
-        if (anySeeThrough) {
-            // Premultiplied "over" in scene order; depth-tested against the opaque surfaces and
-            // the ground, without writing depth (a closed mesh culls its back faces: one layer).
-            glEnable(GL_BLEND);
-            glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-            glDepthMask(GL_FALSE);
-            drawMeshes(true);
-            glDepthMask(GL_TRUE);
-            glDisable(GL_BLEND);
+            setVec3(p, "uAlbedo", m.colour.cwiseMax(0.0).cwiseMin(1.0));
+            setFloat(p, "uOpacity", std::clamp(m.opacity, 0.0, 1.0));
+            if (!m.scalar.empty()) {
+                setVec3(p, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
+                setVec3(p, "uRampHigh", m.ramp.high.cwiseMax(0.0).cwiseMin(1.0));
+                setFloat(p, "uRampMin", m.ramp.min);
+                setFloat(p, "uRampGlow", std::clamp(m.ramp.glow, 0.0, 1.0));
+                if (settings.linearPlanes)
+                    setInt(p, "uMatteAlongRamp", (m.ramp.low - m.colour).cwiseAbs().maxCoeff() < 1e-6 ? 1 : 0);
+                const Real span = m.ramp.max - m.ramp.min;
+                setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
+            }
+            drawTriangles(i, false);
         }
+        glBindVertexArray(0);
+        glDisable(GL_CULL_FACE);
+        glCullFace(GL_BACK);
+    }
 
-        // Overlays last: depth-tested ones pulled slightly towards the eye (lines on a surface
-        // stay visible), on-top ones without the depth test. Flat colour, opaque.
-        buildOverlays(scene, clipFromWorld, w, h);
+    /// The floor's cells: a 4x4 grid whose centre cell bounds where shadows can fall.
+    void drawGroundCells(const FrameScene& scene, const FrameSetup& f) {
+        // Where shadows can fall: the bounding sphere projected along the key light onto
+        // the ground, an ellipse whose bounding box is the f.centre cell (plus the PCF reach).
+        const Vec3& k = f.lights.keyDir;
+        const Vec3 shadowCentre = f.centre - k * ((f.centre.y() - f.groundY) / k.y());
+        const Real reach = 1.05 * f.radius + 4.0 * f.lights.shadowRadius * f.radius +
+                           (softShadows ? 2.0 * f.lights.searchRadius * f.radius : 0.0);
+        const Real halfX = reach * std::sqrt(1 + (k.x() / k.y()) * (k.x() / k.y()));
+        const Real halfZ = reach * std::sqrt(1 + (k.z() / k.y()) * (k.z() / k.y()));
+        const Real outer[4] = {f.centre.x() - f.fadeOuter, f.centre.x() + f.fadeOuter, f.centre.z() - f.fadeOuter,
+                               f.centre.z() + f.fadeOuter};
+        auto clampX = [&](Real v) { return std::clamp(v, outer[0], outer[1]); };
+        auto clampZ = [&](Real v) { return std::clamp(v, outer[2], outer[3]); };
+        const Real xs[4] = {outer[0], clampX(shadowCentre.x() - halfX), clampX(shadowCentre.x() + halfX), outer[1]};
+        const Real zs[4] = {outer[2], clampZ(shadowCentre.z() - halfZ), clampZ(shadowCentre.z() + halfZ), outer[3]};
+        float grid[16 * 3];
+        for (int j = 0; j < 4; ++j)
+            for (int i = 0; i < 4; ++i) {
+                float* v = grid + (j * 4 + i) * 3;
+                v[0] = static_cast<float>(xs[i]);
+                v[1] = static_cast<float>(f.groundY);
+                v[2] = static_cast<float>(zs[j]);
+            }
+        glBindBuffer(GL_ARRAY_BUFFER, groundVbo);
+        glBufferSubData(GL_ARRAY_BUFFER, 0, sizeof grid, grid);
+        glBindVertexArray(groundVao);
+        for (const ShaderProgram* program : {&groundPlainProgram, &groundProgram}) {
+            const ShaderProgram& p = *program;
+            glUseProgram(p.id());
+            setMat4(p, "uClipFromWorld", f.clipFromWorld);
+            setLighting(p, f.lights);
+            setVec3(p, "uGroundCentre", f.centre);
+            setFloat(p, "uFadeInner", f.fadeInner);
+            setFloat(p, "uFadeOuter", f.fadeOuter);
+            setVec3(p, "uGroundAlbedo", Vec3::Constant(0.40));
+            setInt(p, "uCatcher", settings.transparentBackground ? 1 : 0);
+            setInt(p, "uFootprint", f.groundAtOutput ? 1 : 0);
+            setInt(p, "uDecal", 2);
+            setInt(p, "uHasDecal", f.haveDecal ? 1 : 0);
+            setFloat(p, "uDecalGlow", scene.groundMarkGlow);
+            glUniform4f(p.uniform("uDecalRect"), static_cast<float>(f.decalRect[0]), static_cast<float>(f.decalRect[1]),
+                        static_cast<float>(f.decalRect[2]), static_cast<float>(f.decalRect[3]));
+            if (program == &groundPlainProgram) {
+                glDrawElements(GL_TRIANGLES, kGroundOuterIndices, GL_UNSIGNED_INT, nullptr);
+            } else {
+                glDrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT,
+                               reinterpret_cast<const void*>(kGroundOuterIndices * sizeof(unsigned)));
+            }
+        }
+        glBindVertexArray(0);
+    }
+
+    /// Overlays last: depth-tested ones pulled slightly towards the eye (lines on a surface stay
+    /// visible), on-top ones without the depth test. Flat colour, opaque.
+    void drawOverlays(const FrameScene& scene, const FrameSetup& f) {
+        const int w = settings.width, h = settings.height;
+        const GLenum bothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+        buildOverlays(scene, f.clipFromWorld, w, h);
         if (!overlayDraws.empty()) {
             glDrawBuffers(1, bothTargets);  // overlays leave the contact matte as it is
             glUseProgram(overlayProgram.id());
@@ -1296,22 +1237,72 @@ struct Renderer::Impl {
             glEnable(GL_DEPTH_TEST);
             glBindVertexArray(0);
         }
-        if (groundAtOutput) {
+    }
+
+    /// Pass 2: the scene at n x n resolution: premultiplied linear colour, alpha = coverage (and
+    /// the contact matte, cleared to 0 with it).
+    void scenePass(const FrameScene& scene, const Camera& camera, FrameSetup& f) {
+        const int w = settings.width, h = settings.height, factor = settings.supersample;
+        glBindFramebuffer(GL_FRAMEBUFFER, sceneFbo);
+        const GLenum bothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+        glDrawBuffers(settings.linearPlanes ? 2 : 1, bothTargets);
+        glViewport(0, 0, w * factor, h * factor);
+        glClearColor(0, 0, 0, 0);
+        glClearDepth(1.0);
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_LESS);
+        glDepthMask(GL_TRUE);
+        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        if (softShadows) {
+            glActiveTexture(GL_TEXTURE3);
+            glBindTexture(GL_TEXTURE_2D, shadowDepth);
+            glBindSampler(3, depthSampler);
+        }
+        glActiveTexture(GL_TEXTURE0);
+        glBindTexture(GL_TEXTURE_2D, shadowDepth);
+
+        // Meshes first, so that early depth testing rejects the ground behind them; see-through
+        // meshes (opacity < 1) after the ground.
+        const bool anySeeThrough = std::any_of(scene.meshes.begin(), scene.meshes.end(), seeThrough);
+        drawMeshes(scene, camera, f, false);
+        // With the eye above the ground plane and every mesh point above it, the ground can never
+        // hide a mesh, so it is shaded once per output pixel into its own target and composited
+        // under the supersampled meshes in the resolve: a quarter of the fragments at 2x2.
+        // Otherwise (eye below the plane, or a mesh reaching below a given ground height) it is
+        // drawn here, depth-tested, at n x n.
+        f.groundAtOutput = f.drawGround && camera.eye.y() > f.groundY && f.bounds.min.y() >= f.groundY - 1e-3 * f.radius;
+        f.haveDecal = f.drawGround && !scene.groundMarks.empty() && !settings.transparentBackground;
+        if (f.haveDecal) {
+            glActiveTexture(GL_TEXTURE2);
+            f.decalRect = uploadGroundMarks(scene.groundMarks);
+            glActiveTexture(GL_TEXTURE0);
+        }
+        if (f.drawGround && !f.groundAtOutput) drawGroundCells(scene, f);
+        if (anySeeThrough) {
+            // Premultiplied "over" in scene order; depth-tested against the opaque surfaces and
+            // the ground, without writing depth (a closed mesh culls its back faces: one layer).
+            glEnable(GL_BLEND);
+            glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+            glDepthMask(GL_FALSE);
+            drawMeshes(scene, camera, f, true);
+            glDepthMask(GL_TRUE);
+            glDisable(GL_BLEND);
+        }
+
+        drawOverlays(scene, f);
+        if (f.groundAtOutput) {
             glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
             glViewport(0, 0, w, h);
             glClearColor(0, 0, 0, 0);
             glClear(GL_COLOR_BUFFER_BIT);
             glDisable(GL_DEPTH_TEST);
-            drawGroundCells();  // the shadow map is still bound to unit 0
+            drawGroundCells(scene, f);  // the shadow map is still bound to unit 0
         }
+    }
 
-        if (settings.profilePasses) {
-            glFinish();
-            timings.sceneMs = msSince(tScene);
-        }
-        const auto tResolve = std::chrono::steady_clock::now();
-
-        // 3. Box downsample, composite or un-premultiply -> linear RGBA16F (sRGB on the CPU).
+    /// Pass 3: box downsample, composite or un-premultiply -> linear RGBA16F (sRGB on the CPU).
+    void resolvePass(const FrameSetup& f) {
+        const int w = settings.width, h = settings.height;
         glBindFramebuffer(GL_FRAMEBUFFER, outFbo);
         glViewport(0, 0, w, h);
         glDisable(GL_DEPTH_TEST);
@@ -1322,22 +1313,21 @@ struct Renderer::Impl {
         glBindTexture(GL_TEXTURE_2D, groundColour);
         glActiveTexture(GL_TEXTURE0);
         setInt(resolveProgram, "uGround", 1);
-        setInt(resolveProgram, "uHasGround", groundAtOutput ? 1 : 0);
+        setInt(resolveProgram, "uHasGround", f.groundAtOutput ? 1 : 0);
         setInt(resolveProgram, "uTransparent", settings.transparentBackground ? 1 : 0);
         setVec3(resolveProgram, "uBackground", settings.background);
         glBindVertexArray(emptyVao);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glBindVertexArray(0);
 
-        glFinish();
-        if (settings.profilePasses) timings.resolveMs = msSince(tResolve);
-        timings.drawMs = msSince(t0);
-        t0 = std::chrono::steady_clock::now();
+    }
 
-        // 4. Read back the half floats (bottom row first); flip into the top-down Image while
-        // encoding: colour through the exact sRGB table, alpha linear. Pixels the resolve
-        // marked as uncovered (alpha < 0) get the background exactly, round(65535 * srgb(bg)),
-        // or (0,0,0,0) when transparent.
+    /// Reads back the half floats (bottom row first) and flips them into the top-down Image while
+    /// encoding: colour through the exact sRGB table, alpha linear. Pixels the resolve marked as
+    /// uncovered (alpha < 0) get the background exactly, round(65535 * srgb(bg)), or (0,0,0,0)
+    /// when transparent.
+    Image readBack() {
+        const int w = settings.width, h = settings.height;
         readback.resize(static_cast<std::size_t>(w) * h * 4);
         glPixelStorei(GL_PACK_ALIGNMENT, 2);
         glReadPixels(0, 0, w, h, GL_RGBA, GL_HALF_FLOAT, readback.data());
@@ -1370,9 +1360,68 @@ struct Renderer::Impl {
                 }
             },
             16);
+        return image;
+    }
+
+    Image render(const FrameScene& scene, const Camera& camera, LinearImage* linear) {
+        if (linear && !settings.linearPlanes)
+            throw std::logic_error("Renderer::render: linear planes need RenderSettings::linearPlanes");
+        auto t0 = std::chrono::steady_clock::now();
+        context.makeCurrent();
+        const int w = settings.width, h = settings.height, factor = settings.supersample;
+        ensureTargets(w, h, factor);
+
+        FrameSetup f;
+        // Scene f.bounds (meshes only) and the upload of positions and normals.
+        while (meshes.size() < scene.meshes.size()) meshes.emplace_back();
+        for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+            for (const Vec3& p : scene.meshes[i].positions) f.bounds.extend(p);
+            uploadMesh(meshes[i], scene.meshes[i]);
+        }
+        for (std::size_t i = scene.meshes.size(); i < meshes.size(); ++i) meshes[i].indexCount = 0;
+        timings.prepareMs = msSince(t0);
+        t0 = std::chrono::steady_clock::now();
+        f.haveGeometry = !f.bounds.empty();
+        f.centre = f.haveGeometry ? f.bounds.centre() : Vec3::Zero();
+        f.radius = f.haveGeometry ? 0.5 * f.bounds.size().norm() : 1.0;
+        if (!(f.radius > 0)) f.radius = 1e-3;
+
+        f.lights = worldLights(camera);
+
+        // Ground: a quad at the given height, else under the lowest point, fading out radially.
+        f.groundY = scene.groundHeight ? *scene.groundHeight : f.haveGeometry ? f.bounds.min.y() : 0.0;
+        f.fadeInner = 1.2 * f.radius;
+        f.fadeOuter = 4.0 * f.radius;
+        f.drawGround = scene.groundPlane && f.haveGeometry;
+
+        depthRange(scene, camera, f);
+        const Real aspect = static_cast<Real>(w) / h;
+        f.clipFromWorld = camera.clipFromView(aspect, f.nearZ, f.farZ) * camera.viewFromWorld();
+
+        glDisable(GL_BLEND);
+        glDisable(GL_CULL_FACE);
+        glDisable(GL_SCISSOR_TEST);
+        shadowPass(scene, f);
+        if (settings.profilePasses) {
+            glFinish();
+            timings.shadowMs = msSince(t0);
+        }
+        const auto tScene = std::chrono::steady_clock::now();
+        scenePass(scene, camera, f);
+        if (settings.profilePasses) {
+            glFinish();
+            timings.sceneMs = msSince(tScene);
+        }
+        const auto tResolve = std::chrono::steady_clock::now();
+        resolvePass(f);
+        glFinish();
+        if (settings.profilePasses) timings.resolveMs = msSince(tResolve);
+        timings.drawMs = msSince(t0);
+        t0 = std::chrono::steady_clock::now();
+        Image image = readBack();
         if (linear)
-            *linear = linearPlanes(camera, nearZ, farZ, drawGround && groundAtOutput ? std::optional<Real>(groundY)
-                                                                                      : std::nullopt);
+            *linear = linearPlanes(camera, f.nearZ, f.farZ,
+                                   f.drawGround && f.groundAtOutput ? std::optional<Real>(f.groundY) : std::nullopt);
         timings.readbackMs = msSince(t0);
         return image;
     }
