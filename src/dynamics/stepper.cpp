@@ -566,28 +566,13 @@ StepReport DeformableBody::step(const ForceField& field, Real frame, Real dt, co
     return finish(colliders);
 }
 
-StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt) {
-    DGV_CHECK(dt > 0);
-    mPredicted = false;
-    if (mSet.solver == StepSolver::One) return predictOne(field, frame, dt);
-    const auto tStart = Clock::now();
-    StepReport report;
+/// Stage 2 of the chain's prediction: body and flex (Störmer-Verlet; the flex projected onto
+/// SL(3)), driven by the force's moments and the shape memory.
+DeformableBody::BodyFlexStep DeformableBody::predictBodyAndFlex(const ForceSamples& fs, Real dt, StepReport& report) {
     const Index n = mLat.size();
-    const Real h = mLat.spacing;
-    // A step of another length than the last one (adaptive substeps, sim/simulation.cpp): what
-    // the body keeps per step becomes per step of the new length (velocities are per second
-    // already; docs/math.md, "Adaptive substeps").
-    if (mDtLast > 0 && dt != mDtLast) rescaleStep(dt / mDtLast);
-
-    // 1. Forces: value for body and flex, Hessian for the twist.
-    auto t = Clock::now();
-    ForceSamples fs;
-    field.sample(mX, frame, ForceOrder::Hessian, fs);
-    report.forcesSeconds = since(t);
-
-    // 2. Body and flex (Störmer-Verlet; flex projected onto SL(3)).
-    t = Clock::now();
-    const Mat3 L0 = mAdot * mA.inverse();  // the affine velocity gradient before the step
+    BodyFlexStep r;
+    r.L0 = mAdot * mA.inverse();  // the affine velocity gradient before the step
+    const Mat3& L0 = r.L0;
     // Σ m F, the first moment Σ m F X̃ᵀ (the flex's drive, and a pinned body's load), and with
     // FlexDrive::Gradient Σ m ∇F.
     using Acc = Eigen::Matrix<Real, 21, 1>;
@@ -606,8 +591,10 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
             }
         },
         [](const Acc& a, const Acc& b) { return Acc(a + b); });
-    const Vec3 accel = mom.head<3>() / mTotalMass;
-    const Mat3 firstMoment = Eigen::Map<const Mat3>(mom.segment<9>(3).data()) / mTotalMass;
+    r.accel = mom.head<3>() / mTotalMass;
+    const Vec3& accel = r.accel;
+    r.firstMoment = Eigen::Map<const Mat3>(mom.segment<9>(3).data()) / mTotalMass;
+    const Mat3& firstMoment = r.firstMoment;
     const Mat3 moment = byGradient ? Mat3(Eigen::Map<const Mat3>(mom.tail<9>().data()) / mTotalMass) : firstMoment;
     Mat3 flexAccel = mSet.flexDrive == FlexDrive::FirstMoment ? Mat3(moment * mS0inv) : Mat3(moment * mA);
     if (mSet.shapeStiffness > 0) {
@@ -626,13 +613,14 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     // Leapfrog: the half-step velocities kick by the mean of the last step and this one (dt
     // exactly when they are equal).
     const Real kick = mHalfStep ? Real(0.5) * (mDtLast + dt) : Real(0.5) * dt;
-    const Vec3 vcBefore = mVc + kick * accel;
-    mVc = vcBefore;
+    r.vcBefore = mVc + kick * accel;
+    mVc = r.vcBefore;
     mAdot += kick * flexAccel;
     if (mSet.viscosity > 0) viscousFlexKick(kick);
     mHalfStep = true;
-    const Vec3 cNew = mC + dt * mVc;
-    Mat3 aNew = mA + dt * mAdot;
+    r.cNew = mC + dt * mVc;
+    Mat3& aNew = r.aNew;
+    aNew = mA + dt * mAdot;
     const Sl3Result sl3 = projectToSL3Along(aNew, mA.inverse().transpose() * mS0inv);
     if (sl3.ok) {
         aNew = sl3.matrix;
@@ -642,15 +630,21 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         aNew = mA;
         mAdot.setZero();
     }
-    // 2b. A pinned body's load modes (file comment of load_modes.hpp): the amplitudes move
-    // under the load's share on each mode, the shape memory's stiffness and the damping
-    // (semi-implicit), up to the strain bound; the memory's target is the displaced rest shape.
-    // The load is what the pins refuse: the field's affine part over the body, a + K X̃ (the
-    // mass-weighted least-squares fit that drives body and flex, eqs 66-68); its curvature
-    // drives the twist (eq 76) as on a free body. Fed the whole field, an attractor pulling a
-    // pinned jelly stretched it twice over, by the mode and by the twist, and folded it.
-    // Being affine, the load's share on mode i is a · Σ m w_i + K : Σ m w_i X̃ᵀ (both sums fixed
-    // at setup, LoadModes): no pass over the points.
+    return r;
+}
+
+/// Stage 2b: a pinned body's load modes (file comment of load_modes.hpp): the amplitudes move
+/// under the load's share on each mode, the shape memory's stiffness and the damping
+/// (semi-implicit), up to the strain bound; the memory's target is the displaced rest shape.
+/// The load is what the pins refuse: the field's affine part over the body, a + K X̃ (the
+/// mass-weighted least-squares fit that drives body and flex, eqs 66-68); its curvature
+/// drives the twist (eq 76) as on a free body. Fed the whole field, an attractor pulling a
+/// pinned jelly stretched it twice over, by the mode and by the twist, and folded it.
+/// Being affine, the load's share on mode i is a · Σ m w_i + K : Σ m w_i X̃ᵀ (both sums fixed
+/// at setup, LoadModes): no pass over the points.
+/// Returns the step of the amplitudes.
+Vec3 DeformableBody::stepLoadModes(const Vec3& accel, const Mat3& firstMoment, Real dt) {
+    const Index n = mLat.size();
     Vec3 dq = Vec3::Zero();
     if (!mLoad.empty()) {
         const Mat3 K = firstMoment * mS0inv;
@@ -683,10 +677,13 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         dq = qNew - mQ;
         mQ = qNew;
     }
-    report.bodyFlexSeconds = since(t);
+    return dq;
+}
 
-    // 3. Twist: eq 76 with W split into rotation and stretch (file comment).
-    t = Clock::now();
+/// Stage 3: the twist, eq 76 with W split into rotation and stretch (file comment), and the
+/// viscous term on the twist rate.
+void DeformableBody::predictTwist(const ForceSamples& fs, const Mat3& L0, Real dt, StepReport& report) {
+    const Index n = mLat.size();
     std::vector<unsigned char> limited(at(n), 0);
     parallelFor(n, [&](Index p) {
         const std::size_t i = at(p);
@@ -718,46 +715,47 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     // scale").
     if (mSet.viscosity > 0) (void)viscousTwistStep(mLat, mSet.viscosity * dt / (mLat.spacing * mLat.spacing), mDGamma);
     report.sumDeltaGamma2 = sumDeltaGamma2();
-    report.twistSeconds = since(t);
+}
 
-    // 4. The displacement that Γ + δΓ asks for relative to Γ (file comment).
-    t = Clock::now();
+/// A folded lattice (a boundary frame turned over) has |Γ| of tens per lattice step and growing;
+/// the edge transports exp(Γ) overflow past a few hundred. True, with a fault naming the point,
+/// where Γ + δΓ is that large (also NaN).
+bool DeformableBody::connectionFolded(const std::array<std::vector<Mat3>, 3>& gammaBar, StepReport& report) const {
+    const Index n = mLat.size();
+    constexpr Real kMaxGamma = 100;
+    auto size2 = [&](Index p) {
+        Real acc = 0;
+        for (std::size_t c = 0; c < 3; ++c) acc += gammaBar[c][at(p)].squaredNorm();
+        return acc;
+    };
+    const Index folded = parallelReduce(
+        n, Index(0), [&](Index& acc, Index p) { acc += !(size2(p) <= kMaxGamma * kMaxGamma) ? 1 : 0; },
+        [](Index a, Index b) { return a + b; });
+    if (folded > 0) {
+        Index worst = 0;
+        for (Index p = 0; p < n; ++p)
+            if (!(size2(p) <= size2(worst))) worst = p;
+        const Vec3i& u = mLat.coords[at(worst)];
+        char what[300];
+        std::snprintf(what, sizeof what,
+                      "the lattice folded at material point u = (%d, %d, %d): its connection |Γ + δΓ| = %.3g per "
+                      "lattice step (a smooth shape has well under 1): use more damping, more substeps, a "
+                      "briefer force or a stiffer material",
+                      u.x(), u.y(), u.z(), std::sqrt(size2(worst)));
+        report.fault = what;
+        report.faultKind = FaultKind::LatticeFolded;
+        return true;
+    }
+    return false;
+}
+
+/// Stage 4: the displacement that Γ + δΓ asks for relative to Γ (file comment), into
+/// mDisplacement; false, with a fault, where it leaves the lattice's reach in one step.
+bool DeformableBody::reconstructStep(StepReport& report) {
+    const Index n = mLat.size();
+    const Real h = mLat.spacing;
     ReconstructWork& rw = *mRecWork;
-    std::array<std::vector<Mat3>, 3>& gammaBar = rw.gammaBar;
-    for (std::size_t c = 0; c < 3; ++c) {
-        gammaBar[c].resize(at(n));
-        parallelFor(n, [&](Index p) { gammaBar[c][at(p)] = mState.christoffel[c][at(p)] + mDGamma[c][at(p)]; });
-    }
-    {
-        // A folded lattice (a boundary frame turned over) has |Γ| of tens per lattice step and
-        // growing; the edge transports exp(Γ) overflow past a few hundred. Stop with a fault
-        // naming the point instead (also NaN).
-        constexpr Real kMaxGamma = 100;
-        auto size2 = [&](Index p) {
-            Real acc = 0;
-            for (std::size_t c = 0; c < 3; ++c) acc += gammaBar[c][at(p)].squaredNorm();
-            return acc;
-        };
-        const Index folded = parallelReduce(
-            n, Index(0), [&](Index& acc, Index p) { acc += !(size2(p) <= kMaxGamma * kMaxGamma) ? 1 : 0; },
-            [](Index a, Index b) { return a + b; });
-        if (folded > 0) {
-            Index worst = 0;
-            for (Index p = 0; p < n; ++p)
-                if (!(size2(p) <= size2(worst))) worst = p;
-            const Vec3i& u = mLat.coords[at(worst)];
-            char what[300];
-            std::snprintf(what, sizeof what,
-                          "the lattice folded at material point u = (%d, %d, %d): its connection |Γ + δΓ| = %.3g per "
-                          "lattice step (a smooth shape has well under 1): use more damping, more substeps, a "
-                          "briefer force or a stiffer material",
-                          u.x(), u.y(), u.z(), std::sqrt(size2(worst)));
-            report.fault = what;
-            report.faultKind = FaultKind::LatticeFolded;
-            report.totalSeconds = since(tStart);
-            return report;
-        }
-    }
+    const std::array<std::vector<Mat3>, 3>& gammaBar = rw.gammaBar;
     // Both frame fields start from the current frames at the solver's fixed points.
     rw.frames.resize(at(n));
     parallelFor(n, [&](Index p) {
@@ -805,11 +803,15 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
         report.faultKind = FaultKind::TwistTooFar;
         mDisplacement.assign(at(n), Vec3::Zero());
         mDisplacementPrev.assign(at(n), Vec3::Zero());
-        report.totalSeconds = since(tStart);
-        return report;
+        return false;
     }
-    std::vector<Vec3> xNew(at(n));
-    parallelFor(n, [&](Index p) { xNew[at(p)] = mX[at(p)] + mDisplacement[at(p)]; });
+    return true;
+}
+
+/// The gauge: a free body's affine part and centre are the flex and body state; a pinned body's
+/// pins are put back, and the load modes' step added.
+void DeformableBody::applyGauge(const Vec3& cNew, const Mat3& aNew, const Vec3& dq, std::vector<Vec3>& xNew) const {
+    const Index n = mLat.size();
     // The gauge: a free body's affine part and centre are the flex and body state. The map
     // keeps the volume: the affine fit B of a body whose cells keep their volumes need not have
     // det 1 (a swirled ball's fit shrinks), and mapping B onto the flex A (det 1) scaled every
@@ -832,11 +834,57 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
                 xNew[at(p)] += dq[0] * mLoad.w[0][at(p)] + dq[1] * mLoad.w[1][at(p)] + dq[2] * mLoad.w[2][at(p)];
             });
     }
+}
+
+StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt) {
+    DGV_CHECK(dt > 0);
+    mPredicted = false;
+    if (mSet.solver == StepSolver::One) return predictOne(field, frame, dt);
+    const auto tStart = Clock::now();
+    StepReport report;
+    const Index n = mLat.size();
+    // A step of another length than the last one (adaptive substeps, sim/simulation.cpp): what
+    // the body keeps per step becomes per step of the new length (velocities are per second
+    // already; docs/math.md, "Adaptive substeps").
+    if (mDtLast > 0 && dt != mDtLast) rescaleStep(dt / mDtLast);
+
+    // 1. Forces: value for body and flex, Hessian for the twist.
+    auto t = Clock::now();
+    ForceSamples fs;
+    field.sample(mX, frame, ForceOrder::Hessian, fs);
+    report.forcesSeconds = since(t);
+
+    // 2. Body and flex (Störmer-Verlet; flex projected onto SL(3)).
+    t = Clock::now();
+    const BodyFlexStep bf = predictBodyAndFlex(fs, dt, report);
+    const Vec3 dq = mLoad.empty() ? Vec3(Vec3::Zero()) : stepLoadModes(bf.accel, bf.firstMoment, dt);
+    report.bodyFlexSeconds = since(t);
+
+    // 3. Twist: eq 76 with W split into rotation and stretch (file comment).
+    t = Clock::now();
+    predictTwist(fs, bf.L0, dt, report);
+    report.twistSeconds = since(t);
+
+    // 4. The displacement that Γ + δΓ asks for relative to Γ (file comment).
+    t = Clock::now();
+    ReconstructWork& rw = *mRecWork;
+    std::array<std::vector<Mat3>, 3>& gammaBar = rw.gammaBar;
+    for (std::size_t c = 0; c < 3; ++c) {
+        gammaBar[c].resize(at(n));
+        parallelFor(n, [&](Index p) { gammaBar[c][at(p)] = mState.christoffel[c][at(p)] + mDGamma[c][at(p)]; });
+    }
+    if (connectionFolded(gammaBar, report) || !reconstructStep(report)) {
+        report.totalSeconds = since(tStart);
+        return report;
+    }
+    std::vector<Vec3> xNew(at(n));
+    parallelFor(n, [&](Index p) { xNew[at(p)] = mX[at(p)] + mDisplacement[at(p)]; });
+    applyGauge(bf.cNew, bf.aNew, dq, xNew);
     report.reconstructSeconds = since(t);
     mXPred = std::move(xNew);
-    mCPred = cNew;
-    mVcPred = vcBefore;
-    mAPred = aNew;
+    mCPred = bf.cNew;
+    mVcPred = bf.vcBefore;
+    mAPred = bf.aNew;
     mDtPred = dt;
     report.totalSeconds = since(tStart);
     mPredReport = report;
@@ -844,33 +892,20 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     return report;
 }
 
-StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
-    DGV_CHECK(mPredicted);
-    if (mSet.solver == StepSolver::One) return finishOne(colliders);
-    mPredicted = false;
-    const auto tStart = Clock::now();
-    StepReport report = mPredReport;
-    const Index n = mLat.size();
-    const Real h = mLat.spacing;
-    const Real dt = mDtPred;
-    std::vector<Vec3> xNew = std::move(mXPred);
-    mXPred.clear();
-    const Vec3 cNew = mCPred, vcBefore = mVcPred;
-    const Mat3 aNew = mAPred;
+/// The chain step's collider stage: which points respond to which collider (the GLN network's R,
+/// eqs 90-91, collide/gln_network; without a detector, the points inside that collider), and φ of
+/// another body's surface at the prediction, before any response (its push is shared). Only a
+/// collider's own points respond to it: were every point inside some collider to respond to
+/// each, a body touching only another body would count as touching the ground too, and its
+/// pair's momentum would not be put right.
+struct DeformableBody::Responders {
+    std::vector<std::vector<unsigned char>> responds;  ///< per collider, #P flags
+    std::vector<std::vector<Real>> phi0;               ///< per collider that is a body: φ at the prediction
+    std::vector<unsigned char> truth;                  ///< #P: φ < 0 for some collider (the stats' truth)
 
-    // 5. Colliders.
-    auto t = Clock::now();
-    std::fill(mContact.begin(), mContact.end(), 0);
-    std::fill(mContactDepth.begin(), mContactDepth.end(), Real(0));
-    // The points that respond, per collider: the GLN network's R (eqs 90-91, collide/gln_network)
-    // or, without a detector, the points inside that collider. Only that collider's points respond
-    // to it: were every point inside some collider to respond to each, a body touching only
-    // another body would count as touching the ground too, and its pair's momentum would not be
-    // put right.
-    std::vector<std::vector<unsigned char>> responds(colliders.size());
-    // The responding collider whose surface is nearest to x (least φ/|∇φ|; negative: inside):
-    // its index (-1 if none with a gradient), that distance and its unit normal.
-    auto nearestResponding = [&](Index p, const Vec3& x, Real& distance, Vec3& normal) {
+    /// The responding collider whose surface is nearest to x (least φ/|∇φ|; negative: inside):
+    /// its index (-1 if none with a gradient), that distance and its unit normal.
+    int nearest(const std::vector<Collider>& colliders, Index p, const Vec3& x, Real& distance, Vec3& normal) const {
         int best = -1;
         distance = std::numeric_limits<Real>::infinity();
         for (std::size_t c = 0; c < colliders.size(); ++c) {
@@ -885,178 +920,464 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             }
         }
         return best;
-    };
-    // Another body's surface: φ at the predicted positions, before any response (its push is shared).
-    std::vector<std::vector<Real>> phi0(colliders.size());
-    if (!colliders.empty()) {
-        // The truth the contact set is measured against: φ < 0 for some collider, before the response.
-        std::vector<unsigned char> truth(at(n), 0);
+    }
+};
+
+DeformableBody::Responders DeformableBody::findResponders(const std::vector<Collider>& colliders,
+                                                          const std::vector<Vec3>& xNew) const {
+    const Index n = mLat.size();
+    Responders r;
+    r.responds.resize(colliders.size());
+    r.phi0.resize(colliders.size());
+    std::vector<std::vector<unsigned char>>& responds = r.responds;
+    std::vector<std::vector<Real>>& phi0 = r.phi0;
+    std::vector<unsigned char>& truth = r.truth;
+    truth.assign(at(n), 0);
+    for (std::size_t c = 0; c < colliders.size(); ++c) {
+        if (colliders[c].object) phi0[c].assign(at(n), Real(0));
+        responds[c].assign(at(n), 0);
+    }
+    parallelFor(n, [&](Index p) {
+        if (mPinned[at(p)]) return;
         for (std::size_t c = 0; c < colliders.size(); ++c) {
-            if (colliders[c].object) phi0[c].assign(at(n), Real(0));
-            responds[c].assign(at(n), 0);
+            Vec3 g;
+            const Real phi = colliders[c].evaluate(xNew[at(p)], g);
+            if (phi < 0) {
+                truth[at(p)] = 1;
+                if (!mDetector) responds[c][at(p)] = 1;
+            }
+            if (colliders[c].object) phi0[c][at(p)] = phi;
         }
-        parallelFor(n, [&](Index p) {
-            if (mPinned[at(p)]) return;
-            for (std::size_t c = 0; c < colliders.size(); ++c) {
+    });
+    if (mDetector)
+        for (std::size_t c = 0; c < colliders.size(); ++c) {
+            std::vector<unsigned char>& R = responds[c];
+            mDetector(xNew, colliders[c], R);
+            for (Index p = 0; p < n; ++p)
+                if (mPinned[at(p)]) R[at(p)] = 0;
+        }
+    return r;
+}
+
+/// Body and flex take the collider's push first (docs/math.md, "Contact: body and flex take the
+/// collider's push first"): the affine correction of the contacts' depths, bounded, applied to x.
+void DeformableBody::pushBodyAndFlex(const std::vector<Collider>& colliders, const Responders& r, const Vec3& cNew,
+                                     const Mat3& aNew, Real dt, std::vector<Vec3>& xNew) {
+    const Index n = mLat.size();
+    std::vector<AffineContact> contacts;
+    for (Index p = 0; p < n; ++p) {
+        // The deepest collider decides; the point is lifted to its surface and beyond it
+        // by `restitution` × the depth, as the point response below would.
+        Real distance;
+        Vec3 nrm;
+        const int c = r.nearest(colliders, p, xNew[at(p)], distance, nrm);
+        if (c >= 0 && distance < 0) {
+            const Collider& col = colliders[static_cast<std::size_t>(c)];
+            mContactDepth[at(p)] = -distance;  // the depth the prediction reached
+            contacts.push_back({mRestRel[at(p)], nrm, col.share * ((1 + col.restitution) * -distance)});
+        }
+    }
+    Vec3 dc;
+    Mat3 dA;
+    if (!contacts.empty()) {
+        affineContactCorrection(contacts, aNew, mS0inv.inverse(), dc, dA, 2 * mSet.viscosity * dt);
+        // Bounded: no point is thrown further along the contacts' mean normal than the
+        // deepest contact is deep, and the strain of one step stays under
+        // kMaxContactStrain; the points take the rest. (Contacts on opposite sides, e.g.
+        // through a ring, can ask for a large squeeze in one step; where the normals do
+        // not agree, by at least half, the whole displacement is bounded.) The sideways
+        // widening of a squashed body is not bounded: its rim moves a little further than
+        // its flat bottom facet is deep, and bounding that cut the lift by 1-6 % on every
+        // step of a goo ball resting on the ground; its contact points took the rest
+        // alone, which crushed the bottom layer until the lattice folded at frame 58
+        // (docs/math.md, "Goo resting on the ground").
+        constexpr Real kMaxContactStrain = 0.3;
+        Real deepest = 0;
+        Vec3 normalSum = Vec3::Zero();
+        for (const AffineContact& c : contacts) {
+            deepest = std::max(deepest, c.depth);
+            normalSum += c.normal;
+        }
+        const bool agree = normalSum.norm() >= Real(0.5) * static_cast<Real>(contacts.size());
+        const Vec3 meanNormal = agree ? Vec3(normalSum.normalized()) : Vec3::Zero();
+        const Real largest = parallelReduce(
+            n, Real(0),
+            [&](Real& acc, Index p) {
+                const Vec3 move = dc + dA * mRestRel[at(p)];
+                acc = std::max(acc, agree ? std::abs(meanNormal.dot(move)) : move.norm());
+            },
+            [](Real x, Real y) { return std::max(x, y); });
+        const Real strain = (aNew.inverse() * dA).norm();
+        Real scale = 1;
+        if (largest > deepest) scale = deepest / largest;
+        if (strain * scale > kMaxContactStrain) scale = kMaxContactStrain / strain;
+        dc *= scale;
+        dA *= scale;
+        // The jump dA also moves the arms of the body's angular momentum L = skew(Ȧ S Aᵀ)
+        // (S the rest second moment): read off the positions, the velocity after it gives
+        // (Ȧ + dA/δt) S (A + dA)ᵀ, whose cross term Ȧ S dAᵀ is a torque no impulse exerts
+        // (a body resting on the ground, spun by it each step: docs/math.md). It is taken
+        // out by a rotation of the jump, dA −= δt [ω]× A with ½ (tr B − B) ω =
+        // vee skew(Ȧ S dAᵀ), B = A S Aᵀ (vee skew([ω]× B) = ½ (tr B − B) ω).
+        {
+            const Mat3 S = mS0inv.inverse();
+            const Mat3 cross = mAdot * S * dA.transpose();
+            const Mat3 k = Real(0.5) * (cross - cross.transpose());
+            const Vec3 spinUp(k(2, 1), k(0, 2), k(1, 0));
+            const Mat3 B = aNew * S * aNew.transpose();
+            const Mat3 inertia = Real(0.5) * (B.trace() * Mat3::Identity() - B);
+            const Vec3 w = inertia.ldlt().solve(spinUp);
+            Mat3 wx;
+            wx << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+            dA -= dt * wx * aNew;
+        }
+        const Sl3Result r1 = projectToSL3(aNew + dA);
+        if (r1.ok) {
+            const Vec3 c1 = cNew + dc;
+            const Mat3 map = r1.matrix * aNew.inverse();
+            parallelFor(n, [&](Index p) { xNew[at(p)] = c1 + map * (xNew[at(p)] - cNew); });
+        }
+    }
+}
+
+/// Each point still inside a collider it responds to is moved out, with friction.
+void DeformableBody::respondPoints(const std::vector<Collider>& colliders, const Responders& r, const Vec3& vcBefore,
+                                   Real dt, std::vector<Vec3>& xNew) {
+    const Index n = mLat.size();
+    const std::vector<std::vector<unsigned char>>& responds = r.responds;
+    const std::vector<std::vector<Real>>& phi0 = r.phi0;
+    // The tangential step `slip` of a contact point cut by the friction μ (1: sticky, 0:
+    // slip), but by no more than μ × the normal step the contact takes out, Coulomb's bound:
+    // the larger of the point's own push and the body's, (1 + e) × its centre's velocity
+    // into the collider × δt (a resting body: g δt², whatever the point's depth). A point
+    // resting or creeping is held as before; one sliding fast (a spinning body's rim) is
+    // braked by that bound, not stopped dead each step, which tore a spinning ball's contact
+    // layer apart in a few steps (docs/math.md, "Friction acts on the patch's slip").
+    auto frictionStep = [&](const Vec3& slip, const Vec3& nrm, Real mu, Real push, Real restitution,
+                            const Vec3& against) -> Vec3 {
+        const Real size = slip.norm();
+        if (!(size > 0)) return Vec3::Zero();
+        const Real body = (1 + restitution) * std::max(Real(0), -(vcBefore - against).dot(nrm)) * dt;
+        return (mu * std::min(size, std::max(push, body)) / size) * slip;
+    };
+    // The response of one point to one collider: out along the signed distance's gradient,
+    // to the surface and beyond it by `restitution` × the depth (the normal reflection of an
+    // elastic contact; 0: onto the surface), the tangential step reduced by the friction.
+    auto respond = [&](Index p, const Collider& col) {
+        Vec3& x = xNew[at(p)];
+        Vec3 g;
+        const Real phi = col.evaluate(x, g);
+        if (!(phi < 0)) return;
+        const Real gn = g.norm();
+        if (!(gn > 0)) return;
+        const Vec3 nrm = g / gn;
+        const Real push = (1 + col.restitution) * (-phi / gn);
+        x += push * nrm;
+        const Vec3 s = x - mX[at(p)];
+        x -= frictionStep(s - s.dot(nrm) * nrm, nrm, col.friction, push, col.restitution, Vec3::Zero());
+        mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phi / gn);
+    };
+    // Another body's surface: this body's share of the push the prediction asked for,
+    // share × (1 + restitution) × its depth then (the body and flex may have taken part of
+    // it already), and the share of the friction on the step relative to the other body.
+    auto respondShared = [&](Index p, const Collider& col, Real phiBefore) {
+        if (!(phiBefore < 0)) return;
+        Vec3& x = xNew[at(p)];
+        Vec3 g;
+        const Real phi = col.evaluate(x, g);
+        const Real gn = g.norm();
+        if (!(gn > 0)) return;
+        const Vec3 nrm = g / gn;
+        const Real target = phiBefore * (1 - col.share * (1 + col.restitution));  // φ after the push
+        const Real push = phi < target ? (target - phi) / gn : Real(0);
+        x += push * nrm;
+        const Vec3 s = x - mX[at(p)] - dt * col.velocity;
+        x -= frictionStep(s - s.dot(nrm) * nrm, nrm, col.share * col.friction, push, col.restitution, col.velocity);
+        mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phiBefore / gn);
+    };
+    parallelFor(n, [&](Index p) {
+        for (std::size_t c = 0; c < colliders.size(); ++c) {
+            if (!responds[c][at(p)]) continue;
+            mContact[at(p)] = 1;
+            if (colliders[c].object)
+                respondShared(p, colliders[c], phi0[c][at(p)]);
+            else
+                respond(p, colliders[c]);
+        }
+    });
+}
+
+/// Volume, cell by cell, with pinned and contact points held (docs/math.md, "Cell volumes and the
+/// volume projection").
+void DeformableBody::projectChainVolumes(const std::vector<Collider>& colliders, const Responders& r,
+                                         std::vector<Vec3>& xNew, StepReport& report) {
+    const Index n = mLat.size();
+    // Pins are fixed; a contact point slides on its collider's surface (the plane normal to
+    // the gradient of the responding collider it is nearest): the projection's push then
+    // has no net tangential part, as a surface's reaction (docs/math.md, "Contact points
+    // slide in the volume projection"). Held in all directions, it gave a resting body a
+    // steady sideways push: without friction it accelerated, with friction its contact
+    // layer sheared until it folded.
+    std::vector<unsigned char> held(at(n));
+    std::vector<Vec3> slideNormal;
+    if (report.contacts > 0) slideNormal.assign(at(n), Vec3::Zero());
+    parallelFor(n, [&](Index p) {
+        held[at(p)] = mPinned[at(p)] ? 1 : 0;
+        if (mPinned[at(p)] || !mContact[at(p)]) return;
+        Real distance;
+        Vec3 normal;
+        if (r.nearest(colliders, p, xNew[at(p)], distance, normal) < 0) {
+            held[at(p)] = 1;
+        } else {
+            held[at(p)] = kSlides;
+            slideNormal[at(p)] = normal;
+        }
+    });
+    // A cell whose eight corners are all held could not be corrected at all: a fast body
+    // can put whole cells inside a collider in one step, and the response flattens them
+    // onto its surface (ring_drop's landing: one cell 5.7% off; a ball landing at 8 m/s:
+    // 33%). The four corners of such a cell on its far side from the collider (along the
+    // collider's normal at the cell, by the body's affine map of the rest offsets) are
+    // released for the projection, which then restores the volume by lifting them off the
+    // surface rather than pushing the near face into the collider. Pins stay held.
+    if (report.contacts > 0 && !colliders.empty()) {
+        std::vector<Index> release;
+        for (Index c = 0; c < mCells.size(); ++c) {
+            const std::array<Index, 8>& corners = mCells.corners[at(c)];
+            bool all = true;
+            for (Index id : corners) all = all && held[at(id)];
+            if (!all) continue;
+            Vec3 centre = Vec3::Zero();
+            for (Index id : corners) centre += xNew[at(id)] / 8;
+            Real nearest = std::numeric_limits<Real>::infinity();
+            Vec3 normal = Vec3::Zero();
+            for (const Collider& col : colliders) {
                 Vec3 g;
-                const Real phi = colliders[c].evaluate(xNew[at(p)], g);
-                if (phi < 0) {
-                    truth[at(p)] = 1;
-                    if (!mDetector) responds[c][at(p)] = 1;
+                const Real phi = col.evaluate(centre, g);
+                if (phi < nearest && g.norm() > 0) {
+                    nearest = phi;
+                    normal = g.normalized();
                 }
-                if (colliders[c].object) phi0[c][at(p)] = phi;
             }
+            if (normal.isZero()) continue;
+            std::array<std::pair<Real, Index>, 8> away;
+            for (std::size_t k = 0; k < 8; ++k) away[k] = {normal.dot(mA * mRestRel[at(corners[k])]), corners[k]};
+            std::sort(away.begin(), away.end());
+            for (std::size_t k = 4; k < 8; ++k) release.push_back(away[k].second);
+        }
+        for (Index id : release)
+            if (!mPinned[at(id)]) held[at(id)] = 0;
+    }
+    VolumeProjectionSettings vs = volumeSettings();  // also used by restoreState
+    if (!slideNormal.empty()) vs.slideNormals = &slideNormal;
+    // The multipliers' prediction: the last two steps' extrapolated, 2 λ_n − λ_(n−1) (file
+    // comment of volume.hpp; docs/math.md, "The volume correction predicted").
+    const std::size_t nc = at(mCells.size());
+    std::vector<Real> lambda;
+    if (mVolumeLambda.size() == nc) {
+        lambda.resize(nc);
+        const bool two = mVolumeLambdaPrev.size() == nc;
+        parallelFor(mCells.size(), [&](Index c) {
+            lambda[at(c)] = two ? 2 * mVolumeLambda[at(c)] - mVolumeLambdaPrev[at(c)] : mVolumeLambda[at(c)];
         });
-        if (mDetector)
-            for (std::size_t c = 0; c < colliders.size(); ++c) {
-                std::vector<unsigned char>& R = responds[c];
-                mDetector(xNew, colliders[c], R);
-                for (Index p = 0; p < n; ++p)
-                    if (mPinned[at(p)]) R[at(p)] = 0;
-            }
-        // Body and flex take the push first (docs/math.md, "Contact: body and flex take the
-        // collider's push first"), then each point still inside is moved out.
-        if (mSet.affineContact && !mAnyPinned) {
-            std::vector<AffineContact> contacts;
-            for (Index p = 0; p < n; ++p) {
-                // The deepest collider decides; the point is lifted to its surface and beyond it
-                // by `restitution` × the depth, as the point response below would.
-                Real distance;
-                Vec3 nrm;
-                const int c = nearestResponding(p, xNew[at(p)], distance, nrm);
-                if (c >= 0 && distance < 0) {
-                    const Collider& col = colliders[static_cast<std::size_t>(c)];
-                    mContactDepth[at(p)] = -distance;  // the depth the prediction reached
-                    contacts.push_back({mRestRel[at(p)], nrm, col.share * ((1 + col.restitution) * -distance)});
-                }
-            }
-            Vec3 dc;
-            Mat3 dA;
-            if (!contacts.empty()) {
-                affineContactCorrection(contacts, aNew, mS0inv.inverse(), dc, dA, 2 * mSet.viscosity * dt);
-                // Bounded: no point is thrown further along the contacts' mean normal than the
-                // deepest contact is deep, and the strain of one step stays under
-                // kMaxContactStrain; the points take the rest. (Contacts on opposite sides, e.g.
-                // through a ring, can ask for a large squeeze in one step; where the normals do
-                // not agree, by at least half, the whole displacement is bounded.) The sideways
-                // widening of a squashed body is not bounded: its rim moves a little further than
-                // its flat bottom facet is deep, and bounding that cut the lift by 1-6 % on every
-                // step of a goo ball resting on the ground; its contact points took the rest
-                // alone, which crushed the bottom layer until the lattice folded at frame 58
-                // (docs/math.md, "Goo resting on the ground").
-                constexpr Real kMaxContactStrain = 0.3;
-                Real deepest = 0;
-                Vec3 normalSum = Vec3::Zero();
-                for (const AffineContact& c : contacts) {
-                    deepest = std::max(deepest, c.depth);
-                    normalSum += c.normal;
-                }
-                const bool agree = normalSum.norm() >= Real(0.5) * static_cast<Real>(contacts.size());
-                const Vec3 meanNormal = agree ? Vec3(normalSum.normalized()) : Vec3::Zero();
-                const Real largest = parallelReduce(
-                    n, Real(0),
-                    [&](Real& acc, Index p) {
-                        const Vec3 move = dc + dA * mRestRel[at(p)];
-                        acc = std::max(acc, agree ? std::abs(meanNormal.dot(move)) : move.norm());
-                    },
-                    [](Real x, Real y) { return std::max(x, y); });
-                const Real strain = (aNew.inverse() * dA).norm();
-                Real scale = 1;
-                if (largest > deepest) scale = deepest / largest;
-                if (strain * scale > kMaxContactStrain) scale = kMaxContactStrain / strain;
-                dc *= scale;
-                dA *= scale;
-                // The jump dA also moves the arms of the body's angular momentum L = skew(Ȧ S Aᵀ)
-                // (S the rest second moment): read off the positions, the velocity after it gives
-                // (Ȧ + dA/δt) S (A + dA)ᵀ, whose cross term Ȧ S dAᵀ is a torque no impulse exerts
-                // (a body resting on the ground, spun by it each step: docs/math.md). It is taken
-                // out by a rotation of the jump, dA −= δt [ω]× A with ½ (tr B − B) ω =
-                // vee skew(Ȧ S dAᵀ), B = A S Aᵀ (vee skew([ω]× B) = ½ (tr B − B) ω).
-                {
-                    const Mat3 S = mS0inv.inverse();
-                    const Mat3 cross = mAdot * S * dA.transpose();
-                    const Mat3 k = Real(0.5) * (cross - cross.transpose());
-                    const Vec3 spinUp(k(2, 1), k(0, 2), k(1, 0));
-                    const Mat3 B = aNew * S * aNew.transpose();
-                    const Mat3 inertia = Real(0.5) * (B.trace() * Mat3::Identity() - B);
-                    const Vec3 w = inertia.ldlt().solve(spinUp);
-                    Mat3 wx;
-                    wx << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
-                    dA -= dt * wx * aNew;
-                }
-                const Sl3Result r1 = projectToSL3(aNew + dA);
-                if (r1.ok) {
-                    const Vec3 c1 = cNew + dc;
-                    const Mat3 map = r1.matrix * aNew.inverse();
-                    parallelFor(n, [&](Index p) { xNew[at(p)] = c1 + map * (xNew[at(p)] - cNew); });
-                }
+    }
+    vs.multipliers = &lambda;
+    const VolumeProjectionReport vr = projectVolumes(mCells, mRestVolumes, held, xNew, vs);
+    mVolumeLambdaPrev = std::move(mVolumeLambda);
+    mVolumeLambda = std::move(lambda);
+    report.volumeIterations = vr.iterations;
+    report.volumeConverged = vr.converged;
+}
+
+/// The contact's rules on the body's centre and flex velocities after the constraints: the
+/// restitution on the normal part of the body velocity about the mean contact normal, the
+/// patch's friction, and the flex rate that would lift the patch off (docs/math.md, "Contact:
+/// body and flex take the collider's push first").
+void DeformableBody::landOnColliders(const std::vector<Collider>& colliders, const std::vector<Vec3>& xNew,
+                                     const Mat3& A1, const Vec3& vcBefore, Real inelastic, bool jellyLanding) {
+    const Index n = mLat.size();
+    const Real h = mLat.spacing;
+    // restitution on the normal part of the body velocity, about the mean contact normal
+    Vec3 nSum = Vec3::Zero(), restSum = Vec3::Zero();
+    std::vector<Vec3> patch;  // the contact points' positions
+    Real e = 0, mu = 0;
+    Index count = 0;
+    for (Index p = 0; p < n; ++p) {
+        if (!mContact[at(p)]) continue;
+        for (const Collider& col : colliders) {
+            if (col.object) continue;  // below
+            Vec3 g;
+            if (col.evaluate(xNew[at(p)], g) <= 1e-9 * h) {
+                nSum += g;
+                restSum += mRestRel[at(p)];
+                patch.push_back(xNew[at(p)]);
+                e += col.restitution;
+                mu += col.friction;
+                ++count;
+                break;
             }
         }
-        // The tangential step `slip` of a contact point cut by the friction μ (1: sticky, 0:
-        // slip), but by no more than μ × the normal step the contact takes out, Coulomb's bound:
-        // the larger of the point's own push and the body's, (1 + e) × its centre's velocity
-        // into the collider × δt (a resting body: g δt², whatever the point's depth). A point
-        // resting or creeping is held as before; one sliding fast (a spinning body's rim) is
-        // braked by that bound, not stopped dead each step, which tore a spinning ball's contact
-        // layer apart in a few steps (docs/math.md, "Friction acts on the patch's slip").
-        auto frictionStep = [&](const Vec3& slip, const Vec3& nrm, Real mu, Real push, Real restitution,
-                                const Vec3& against) -> Vec3 {
-            const Real size = slip.norm();
-            if (!(size > 0)) return Vec3::Zero();
-            const Real body = (1 + restitution) * std::max(Real(0), -(vcBefore - against).dot(nrm)) * dt;
-            return (mu * std::min(size, std::max(push, body)) / size) * slip;
+    }
+    if (count > 0 && nSum.norm() > 0) {
+        // The body meets the collider: its centre's velocity into it stops (or bounces back
+        // with the restitution); otherwise the free points keep falling onto the held ones
+        // and fold the bottom layers within a few steps. And the flex rate may not lift the
+        // contact patch off by itself: a body that squashes on impact (goo has nothing to
+        // stop the squash) would otherwise hop. The part of Ȧ that moves the mean contact
+        // point X̄ away from the collider relative to the centre is taken out (the least
+        // change in the kinetic metric, trace-free: det A kept), so the squash's momentum
+        // is absorbed by the contact (docs/math.md, "Contact: body and flex take the
+        // collider's push first").
+        const Vec3 nrm = nSum.normalized();
+        const Real vn = vcBefore.dot(nrm);
+        // ... and a slow approach (a body resting or set down: |v_n| of a few g δt) is
+        // inelastic too: an elastic one chattered on the ground, the push of each step
+        // thrown back by the memory (a jelly of k = 1000 set down kept 3 J of 14).
+        // The scale: a tenth of the memory's velocity for a unit strain, √(k s).
+        const Real slow =
+            jellyLanding ? Real(0.1) * std::sqrt(mSet.shapeStiffness * mS0inv.inverse().trace() / 3) : Real(0);
+        const Real share =
+            slow > 0 ? std::max(inelastic, std::clamp(2 - std::abs(vn) / slow, Real(0), Real(1))) : inelastic;
+        const Vec3 xbar = restSum / static_cast<Real>(count);
+        // The body's rigid motion about its centre: ω = J⁻¹ L with L the angular momentum
+        // of the flex rate per unit mass (vee of the skew part of Ȧ S Aᵀ) and J = tr B − B,
+        // B = A S Aᵀ; the flex rate of a spin ω is [ω]× A.
+        const Mat3 S = mS0inv.inverse();
+        const Mat3 B = A1 * S * A1.transpose();
+        const Eigen::LDLT<Mat3> inertia((B.trace() * Mat3::Identity() - B).eval());
+        auto spinOf = [&](const Mat3& rate) {
+            const Mat3 K = rate * S * A1.transpose();  // Σ m v rᵀ / M
+            return Vec3(inertia.solve(Vec3(K(2, 1) - K(1, 2), K(0, 2) - K(2, 0), K(1, 0) - K(0, 1))));
         };
-        // The response of one point to one collider: out along the signed distance's gradient,
-        // to the surface and beyond it by `restitution` × the depth (the normal reflection of an
-        // elastic contact; 0: onto the surface), the tangential step reduced by the friction.
-        auto respond = [&](Index p, const Collider& col) {
-            Vec3& x = xNew[at(p)];
-            Vec3 g;
-            const Real phi = col.evaluate(x, g);
-            if (!(phi < 0)) return;
-            const Real gn = g.norm();
-            if (!(gn > 0)) return;
-            const Vec3 nrm = g / gn;
-            const Real push = (1 + col.restitution) * (-phi / gn);
-            x += push * nrm;
-            const Vec3 s = x - mX[at(p)];
-            x -= frictionStep(s - s.dot(nrm) * nrm, nrm, col.friction, push, col.restitution, Vec3::Zero());
-            mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phi / gn);
+        auto spinRate = [&](const Vec3& w) {
+            Mat3 wx;
+            wx << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+            return Mat3(wx * A1);
         };
-        // Another body's surface: this body's share of the push the prediction asked for,
-        // share × (1 + restitution) × its depth then (the body and flex may have taken part of
-        // it already), and the share of the friction on the step relative to the other body.
-        auto respondShared = [&](Index p, const Collider& col, Real phiBefore) {
-            if (!(phiBefore < 0)) return;
-            Vec3& x = xNew[at(p)];
-            Vec3 g;
-            const Real phi = col.evaluate(x, g);
-            const Real gn = g.norm();
-            if (!(gn > 0)) return;
-            const Vec3 nrm = g / gn;
-            const Real target = phiBefore * (1 - col.share * (1 + col.restitution));  // φ after the push
-            const Real push = phi < target ? (target - phi) / gn : Real(0);
-            x += push * nrm;
-            const Vec3 s = x - mX[at(p)] - dt * col.velocity;
-            x -= frictionStep(s - s.dot(nrm) * nrm, nrm, col.share * col.friction, push, col.restitution, col.velocity);
-            mContactDepth[at(p)] = std::max(mContactDepth[at(p)], -phiBefore / gn);
-        };
-        parallelFor(n, [&](Index p) {
-            for (std::size_t c = 0; c < colliders.size(); ++c) {
-                if (!responds[c][at(p)]) continue;
-                mContact[at(p)] = 1;
-                if (colliders[c].object)
-                    respondShared(p, colliders[c], phi0[c][at(p)]);
-                else
-                    respond(p, colliders[c]);
+        const Vec3 arm = A1 * xbar;
+        if (vn < 0) {
+            const Real restitution = e / static_cast<Real>(count), friction = mu / static_cast<Real>(count);
+            // (the whole approach stops for the inelastic rule; a jelly's slow approach loses
+            // only its velocity into the collider, so its rebound off a squash keeps going)
+            mVc += -inelastic * (mVc.dot(nrm) + restitution * vn) * nrm;
+            if (share > inelastic && mVc.dot(nrm) < 0)
+                mVc -= ((share - inelastic) / (1 - inelastic)) * mVc.dot(nrm) * nrm;
+            // Coulomb friction at the contact patch: the slip of the patch's mean material
+            // point X̄ under the body's rigid motion, v_c + ω × A X̄ (its deformation, a
+            // sag spreading the patch, is the points' own friction's), loses up to the
+            // friction coefficient times the normal velocity the contact took out (a body
+            // resting under gravity: μ g δt a step, so a slow creep stops dead), by an
+            // impulse at A X̄ as on a rigid body: δv_c = −λ t, δω = J⁻¹ (A X̄ × −λ t),
+            // δȦ = [δω]× A (det A kept). A body spinning on a rough ground so rolls away;
+            // braking the centre alone held it where it was, spinning (docs/math.md,
+            // "Friction acts on the patch's slip").
+            const Vec3 slipVel = mVc + spinOf(mAdot).cross(arm);
+            const Vec3 slip = slipVel - slipVel.dot(nrm) * nrm;
+            const Real vs = slip.norm(), brake = friction * (1 + restitution) * (-vn);
+            if (vs > 0 && brake > 0) {
+                const Vec3 tdir = slip / vs;
+                const Vec3 turn = inertia.solve(arm.cross(tdir));     // δω per unit impulse along −t
+                const Real response = 1 + arm.cross(tdir).dot(turn);  // slip change per unit impulse
+                const Real lambda = std::min(vs / response, brake);
+                mVc -= lambda * tdir;
+                mAdot -= lambda * spinRate(turn);
             }
+            // And the patch's friction against turning about the normal (a body spinning
+            // like a top on it): up to μ × the normal impulse × the mean distance of the
+            // contact points from their centroid in the plane (for a uniformly pressed
+            // disc of radius a, 2a/3: the Coulomb torque). Without it a ball kept
+            // spinning on the ground on the spot for as long as it was watched.
+            Vec3 centroid = Vec3::Zero();
+            for (const Vec3& x : patch) centroid += x / static_cast<Real>(patch.size());
+            Real reach = 0;
+            for (const Vec3& x : patch) {
+                const Vec3 d = x - centroid;
+                reach += (d - d.dot(nrm) * nrm).norm() / static_cast<Real>(patch.size());
+            }
+            const Vec3 turnAxis = inertia.solve(nrm);  // δω per unit angular impulse about n
+            const Real twist = spinOf(mAdot).dot(nrm), perImpulse = nrm.dot(turnAxis);
+            if (twist != 0 && perImpulse > 0 && reach > 0) {
+                const Real tau = std::min(std::abs(twist) / perImpulse, brake * reach);
+                mAdot -= (std::copysign(tau, twist)) * spinRate(turnAxis);
+            }
+        }
+        const Real lift = nrm.dot(mAdot * xbar);  // > 0: the patch leaves the collider
+        const Mat3 gA = volumeKeeping(nrm * xbar.transpose() * mS0inv, A1, mS0inv);
+        const Real effect = nrm.dot(gA * xbar);
+        if (inelastic > 0 && lift > 0 && vn < 0 && effect > 1e-12 * xbar.squaredNorm() * mS0inv.norm())
+            mAdot -= (inelastic * lift / effect) * gA;
+    }
+}
+
+/// The rate δΓ carried to the next step: in contact only what the constraints realised of it
+/// (anti-windup), or (realizedRate) the change that happened.
+void DeformableBody::carryRate(bool antiWindup, const std::array<std::vector<Mat3>, 3>& gammaOld) {
+    const Index n = mLat.size();
+    if (antiWindup) {
+        // Anti-windup in contact: keep the realised fraction of δΓ at each point, between 0 (the
+        // constraints refused it all, or turned it round) and 1 (it all happened). The direction
+        // stays eq 76's; the constraints' own push never becomes a rate.
+        parallelFor(n, [&](Index p) {
+            Real realised = 0, asked = 0;
+            for (std::size_t c = 0; c < 3; ++c) {
+                const Mat3 change = mState.christoffel[c][at(p)] - gammaOld[c][at(p)];
+                realised += change.cwiseProduct(mDGamma[c][at(p)]).sum();
+                asked += mDGamma[c][at(p)].squaredNorm();
+            }
+            if (!(asked > 0)) return;
+            const Real f = std::clamp(realised / asked, Real(0), Real(1));
+            for (std::size_t c = 0; c < 3; ++c) mDGamma[c][at(p)] *= f;
         });
+    }
+    if (mSet.realizedRate) {
+        // The rate carried to the next step is the change that happened (after reconstruction,
+        // colliders, pins and the volume projection), not the one that was asked for: what the
+        // constraints refused does not wind up in δΓ.
+        parallelFor(n, [&](Index p) {
+            PointConnection d;
+            for (std::size_t c = 0; c < 3; ++c) d[c] = mState.christoffel[c][at(p)] - gammaOld[c][at(p)];
+            if (mSet.traceFree) projectTraceFree(d);
+            Real norm2 = 0;
+            for (const Mat3& m : d) norm2 += m.squaredNorm();
+            const Real cap2 = mSet.maxDeltaGamma * mSet.maxDeltaGamma;
+            if (norm2 > cap2) {
+                const Real s = std::sqrt(cap2 / norm2);
+                for (Mat3& m : d) m *= s;
+            }
+            for (std::size_t c = 0; c < 3; ++c) mDGamma[c][at(p)] = d[c];
+        });
+    }
+}
+
+StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
+    DGV_CHECK(mPredicted);
+    if (mSet.solver == StepSolver::One) return finishOne(colliders);
+    mPredicted = false;
+    const auto tStart = Clock::now();
+    StepReport report = mPredReport;
+    const Index n = mLat.size();
+    const Real dt = mDtPred;
+    std::vector<Vec3> xNew = std::move(mXPred);
+    mXPred.clear();
+    const Vec3 cNew = mCPred, vcBefore = mVcPred;
+    const Mat3 aNew = mAPred;
+
+    // 5. Colliders.
+    auto t = Clock::now();
+    std::fill(mContact.begin(), mContact.end(), 0);
+    std::fill(mContactDepth.begin(), mContactDepth.end(), Real(0));
+    Responders responders;
+    if (!colliders.empty()) {
+        responders = findResponders(colliders, xNew);
+        // Body and flex take the push first, then each point still inside is moved out.
+        if (mSet.affineContact && !mAnyPinned) pushBodyAndFlex(colliders, responders, cNew, aNew, dt, xNew);
+        respondPoints(colliders, responders, vcBefore, dt, xNew);
         for (std::size_t c = 0; c < colliders.size(); ++c)
-            if (!colliders[c].object && std::count(responds[c].begin(), responds[c].end(), 1) > 0)
+            if (!colliders[c].object && std::count(responders.responds[c].begin(), responders.responds[c].end(), 1) > 0)
                 report.staticContact = true;
         for (Index p = 0; p < n; ++p) {
-            report.contactTruth += truth[at(p)];
-            if (truth[at(p)] && mContact[at(p)]) ++report.contactTruePositive;
+            report.contactTruth += responders.truth[at(p)];
+            if (responders.truth[at(p)] && mContact[at(p)]) ++report.contactTruePositive;
         }
     }
     report.contacts = std::count(mContact.begin(), mContact.end(), 1);
@@ -1064,83 +1385,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
 
     // 6. Volume, cell by cell, with pinned and contact points held.
     t = Clock::now();
-    if (mSet.projectVolume && mCells.size() > 0) {
-        // Pins are fixed; a contact point slides on its collider's surface (the plane normal to
-        // the gradient of the responding collider it is nearest): the projection's push then
-        // has no net tangential part, as a surface's reaction (docs/math.md, "Contact points
-        // slide in the volume projection"). Held in all directions, it gave a resting body a
-        // steady sideways push: without friction it accelerated, with friction its contact
-        // layer sheared until it folded.
-        std::vector<unsigned char> held(at(n));
-        std::vector<Vec3> slideNormal;
-        if (report.contacts > 0) slideNormal.assign(at(n), Vec3::Zero());
-        parallelFor(n, [&](Index p) {
-            held[at(p)] = mPinned[at(p)] ? 1 : 0;
-            if (mPinned[at(p)] || !mContact[at(p)]) return;
-            Real distance;
-            Vec3 normal;
-            if (nearestResponding(p, xNew[at(p)], distance, normal) < 0) {
-                held[at(p)] = 1;
-            } else {
-                held[at(p)] = kSlides;
-                slideNormal[at(p)] = normal;
-            }
-        });
-        // A cell whose eight corners are all held could not be corrected at all: a fast body
-        // can put whole cells inside a collider in one step, and the response flattens them
-        // onto its surface (ring_drop's landing: one cell 5.7% off; a ball landing at 8 m/s:
-        // 33%). The four corners of such a cell on its far side from the collider (along the
-        // collider's normal at the cell, by the body's affine map of the rest offsets) are
-        // released for the projection, which then restores the volume by lifting them off the
-        // surface rather than pushing the near face into the collider. Pins stay held.
-        if (report.contacts > 0 && !colliders.empty()) {
-            std::vector<Index> release;
-            for (Index c = 0; c < mCells.size(); ++c) {
-                const std::array<Index, 8>& corners = mCells.corners[at(c)];
-                bool all = true;
-                for (Index id : corners) all = all && held[at(id)];
-                if (!all) continue;
-                Vec3 centre = Vec3::Zero();
-                for (Index id : corners) centre += xNew[at(id)] / 8;
-                Real nearest = std::numeric_limits<Real>::infinity();
-                Vec3 normal = Vec3::Zero();
-                for (const Collider& col : colliders) {
-                    Vec3 g;
-                    const Real phi = col.evaluate(centre, g);
-                    if (phi < nearest && g.norm() > 0) {
-                        nearest = phi;
-                        normal = g.normalized();
-                    }
-                }
-                if (normal.isZero()) continue;
-                std::array<std::pair<Real, Index>, 8> away;
-                for (std::size_t k = 0; k < 8; ++k) away[k] = {normal.dot(mA * mRestRel[at(corners[k])]), corners[k]};
-                std::sort(away.begin(), away.end());
-                for (std::size_t k = 4; k < 8; ++k) release.push_back(away[k].second);
-            }
-            for (Index id : release)
-                if (!mPinned[at(id)]) held[at(id)] = 0;
-        }
-        VolumeProjectionSettings vs = volumeSettings();  // also used by restoreState
-        if (!slideNormal.empty()) vs.slideNormals = &slideNormal;
-        // The multipliers' prediction: the last two steps' extrapolated, 2 λ_n − λ_(n−1) (file
-        // comment of volume.hpp; docs/math.md, "The volume correction predicted").
-        const std::size_t nc = at(mCells.size());
-        std::vector<Real> lambda;
-        if (mVolumeLambda.size() == nc) {
-            lambda.resize(nc);
-            const bool two = mVolumeLambdaPrev.size() == nc;
-            parallelFor(mCells.size(), [&](Index c) {
-                lambda[at(c)] = two ? 2 * mVolumeLambda[at(c)] - mVolumeLambdaPrev[at(c)] : mVolumeLambda[at(c)];
-            });
-        }
-        vs.multipliers = &lambda;
-        const VolumeProjectionReport vr = projectVolumes(mCells, mRestVolumes, held, xNew, vs);
-        mVolumeLambdaPrev = std::move(mVolumeLambda);
-        mVolumeLambda = std::move(lambda);
-        report.volumeIterations = vr.iterations;
-        report.volumeConverged = vr.converged;
-    }
+    if (mSet.projectVolume && mCells.size() > 0) projectChainVolumes(colliders, responders, xNew, report);
     if (!colliders.empty())
         report.maxPenetration = parallelReduce(
             n, Real(0),
@@ -1189,118 +1434,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
             !jellyLanding ? Real(1)
                           : std::clamp((landingStrain - mSet.maxLandingStrain) / (Real(0.5) * mSet.maxLandingStrain),
                                        Real(0), Real(1));
-        if (report.contacts > 0) {
-            // restitution on the normal part of the body velocity, about the mean contact normal
-            Vec3 nSum = Vec3::Zero(), restSum = Vec3::Zero();
-            std::vector<Vec3> patch;  // the contact points' positions
-            Real e = 0, mu = 0;
-            Index count = 0;
-            for (Index p = 0; p < n; ++p) {
-                if (!mContact[at(p)]) continue;
-                for (const Collider& col : colliders) {
-                    if (col.object) continue;  // below
-                    Vec3 g;
-                    if (col.evaluate(xNew[at(p)], g) <= 1e-9 * h) {
-                        nSum += g;
-                        restSum += mRestRel[at(p)];
-                        patch.push_back(xNew[at(p)]);
-                        e += col.restitution;
-                        mu += col.friction;
-                        ++count;
-                        break;
-                    }
-                }
-            }
-            if (count > 0 && nSum.norm() > 0) {
-                // The body meets the collider: its centre's velocity into it stops (or bounces back
-                // with the restitution); otherwise the free points keep falling onto the held ones
-                // and fold the bottom layers within a few steps. And the flex rate may not lift the
-                // contact patch off by itself: a body that squashes on impact (goo has nothing to
-                // stop the squash) would otherwise hop. The part of Ȧ that moves the mean contact
-                // point X̄ away from the collider relative to the centre is taken out (the least
-                // change in the kinetic metric, trace-free: det A kept), so the squash's momentum
-                // is absorbed by the contact (docs/math.md, "Contact: body and flex take the
-                // collider's push first").
-                const Vec3 nrm = nSum.normalized();
-                const Real vn = vcBefore.dot(nrm);
-                // ... and a slow approach (a body resting or set down: |v_n| of a few g δt) is
-                // inelastic too: an elastic one chattered on the ground, the push of each step
-                // thrown back by the memory (a jelly of k = 1000 set down kept 3 J of 14).
-                // The scale: a tenth of the memory's velocity for a unit strain, √(k s).
-                const Real slow =
-                    jellyLanding ? Real(0.1) * std::sqrt(mSet.shapeStiffness * mS0inv.inverse().trace() / 3) : Real(0);
-                const Real share =
-                    slow > 0 ? std::max(inelastic, std::clamp(2 - std::abs(vn) / slow, Real(0), Real(1))) : inelastic;
-                const Vec3 xbar = restSum / static_cast<Real>(count);
-                // The body's rigid motion about its centre: ω = J⁻¹ L with L the angular momentum
-                // of the flex rate per unit mass (vee of the skew part of Ȧ S Aᵀ) and J = tr B − B,
-                // B = A S Aᵀ; the flex rate of a spin ω is [ω]× A.
-                const Mat3 S = mS0inv.inverse();
-                const Mat3 B = A1 * S * A1.transpose();
-                const Eigen::LDLT<Mat3> inertia((B.trace() * Mat3::Identity() - B).eval());
-                auto spinOf = [&](const Mat3& rate) {
-                    const Mat3 K = rate * S * A1.transpose();  // Σ m v rᵀ / M
-                    return Vec3(inertia.solve(Vec3(K(2, 1) - K(1, 2), K(0, 2) - K(2, 0), K(1, 0) - K(0, 1))));
-                };
-                auto spinRate = [&](const Vec3& w) {
-                    Mat3 wx;
-                    wx << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
-                    return Mat3(wx * A1);
-                };
-                const Vec3 arm = A1 * xbar;
-                if (vn < 0) {
-                    const Real restitution = e / static_cast<Real>(count), friction = mu / static_cast<Real>(count);
-                    // (the whole approach stops for the inelastic rule; a jelly's slow approach loses
-                    // only its velocity into the collider, so its rebound off a squash keeps going)
-                    mVc += -inelastic * (mVc.dot(nrm) + restitution * vn) * nrm;
-                    if (share > inelastic && mVc.dot(nrm) < 0)
-                        mVc -= ((share - inelastic) / (1 - inelastic)) * mVc.dot(nrm) * nrm;
-                    // Coulomb friction at the contact patch: the slip of the patch's mean material
-                    // point X̄ under the body's rigid motion, v_c + ω × A X̄ (its deformation, a
-                    // sag spreading the patch, is the points' own friction's), loses up to the
-                    // friction coefficient times the normal velocity the contact took out (a body
-                    // resting under gravity: μ g δt a step, so a slow creep stops dead), by an
-                    // impulse at A X̄ as on a rigid body: δv_c = −λ t, δω = J⁻¹ (A X̄ × −λ t),
-                    // δȦ = [δω]× A (det A kept). A body spinning on a rough ground so rolls away;
-                    // braking the centre alone held it where it was, spinning (docs/math.md,
-                    // "Friction acts on the patch's slip").
-                    const Vec3 slipVel = mVc + spinOf(mAdot).cross(arm);
-                    const Vec3 slip = slipVel - slipVel.dot(nrm) * nrm;
-                    const Real vs = slip.norm(), brake = friction * (1 + restitution) * (-vn);
-                    if (vs > 0 && brake > 0) {
-                        const Vec3 tdir = slip / vs;
-                        const Vec3 turn = inertia.solve(arm.cross(tdir));     // δω per unit impulse along −t
-                        const Real response = 1 + arm.cross(tdir).dot(turn);  // slip change per unit impulse
-                        const Real lambda = std::min(vs / response, brake);
-                        mVc -= lambda * tdir;
-                        mAdot -= lambda * spinRate(turn);
-                    }
-                    // And the patch's friction against turning about the normal (a body spinning
-                    // like a top on it): up to μ × the normal impulse × the mean distance of the
-                    // contact points from their centroid in the plane (for a uniformly pressed
-                    // disc of radius a, 2a/3: the Coulomb torque). Without it a ball kept
-                    // spinning on the ground on the spot for as long as it was watched.
-                    Vec3 centroid = Vec3::Zero();
-                    for (const Vec3& x : patch) centroid += x / static_cast<Real>(patch.size());
-                    Real reach = 0;
-                    for (const Vec3& x : patch) {
-                        const Vec3 d = x - centroid;
-                        reach += (d - d.dot(nrm) * nrm).norm() / static_cast<Real>(patch.size());
-                    }
-                    const Vec3 turnAxis = inertia.solve(nrm);  // δω per unit angular impulse about n
-                    const Real twist = spinOf(mAdot).dot(nrm), perImpulse = nrm.dot(turnAxis);
-                    if (twist != 0 && perImpulse > 0 && reach > 0) {
-                        const Real tau = std::min(std::abs(twist) / perImpulse, brake * reach);
-                        mAdot -= (std::copysign(tau, twist)) * spinRate(turnAxis);
-                    }
-                }
-                const Real lift = nrm.dot(mAdot * xbar);  // > 0: the patch leaves the collider
-                const Mat3 gA = volumeKeeping(nrm * xbar.transpose() * mS0inv, A1, mS0inv);
-                const Real effect = nrm.dot(gA * xbar);
-                if (inelastic > 0 && lift > 0 && vn < 0 && effect > 1e-12 * xbar.squaredNorm() * mS0inv.norm())
-                    mAdot -= (inelastic * lift / effect) * gA;
-            }
-        }
+        if (report.contacts > 0) landOnColliders(colliders, xNew, A1, vcBefore, inelastic, jellyLanding);
         mC = c1;
         mA = A1;
     } else {
@@ -1321,40 +1455,7 @@ StepReport DeformableBody::finish(const std::vector<Collider>& colliders) {
     const bool antiWindup = mSet.antiWindup && !mSet.realizedRate && report.contacts > 0;
     if (mSet.realizedRate || antiWindup) gammaOld = mState.christoffel;
     computeGeometricState(mLat, mX, mState, BoundaryStencils::Realisable);
-    if (antiWindup) {
-        // Anti-windup in contact: keep the realised fraction of δΓ at each point, between 0 (the
-        // constraints refused it all, or turned it round) and 1 (it all happened). The direction
-        // stays eq 76's; the constraints' own push never becomes a rate.
-        parallelFor(n, [&](Index p) {
-            Real realised = 0, asked = 0;
-            for (std::size_t c = 0; c < 3; ++c) {
-                const Mat3 change = mState.christoffel[c][at(p)] - gammaOld[c][at(p)];
-                realised += change.cwiseProduct(mDGamma[c][at(p)]).sum();
-                asked += mDGamma[c][at(p)].squaredNorm();
-            }
-            if (!(asked > 0)) return;
-            const Real f = std::clamp(realised / asked, Real(0), Real(1));
-            for (std::size_t c = 0; c < 3; ++c) mDGamma[c][at(p)] *= f;
-        });
-    }
-    if (mSet.realizedRate) {
-        // The rate carried to the next step is the change that happened (after reconstruction,
-        // colliders, pins and the volume projection), not the one that was asked for: what the
-        // constraints refused does not wind up in δΓ.
-        parallelFor(n, [&](Index p) {
-            PointConnection d;
-            for (std::size_t c = 0; c < 3; ++c) d[c] = mState.christoffel[c][at(p)] - gammaOld[c][at(p)];
-            if (mSet.traceFree) projectTraceFree(d);
-            Real norm2 = 0;
-            for (const Mat3& m : d) norm2 += m.squaredNorm();
-            const Real cap2 = mSet.maxDeltaGamma * mSet.maxDeltaGamma;
-            if (norm2 > cap2) {
-                const Real s = std::sqrt(cap2 / norm2);
-                for (Mat3& m : d) m *= s;
-            }
-            for (std::size_t c = 0; c < 3; ++c) mDGamma[c][at(p)] = d[c];
-        });
-    }
+    carryRate(antiWindup, gammaOld);
     if (mSet.yieldStrain > 0) yieldRestShape();
     report.stateSeconds = since(t);
     volumeFigures(report.maxCellVolumeError, report.totalVolumeDrift, report.invertedCells);

@@ -399,6 +399,32 @@ private:
     std::vector<Vec3> mXHat;
     Real mBeta = 1;
 
+    // The chain step's prediction, stage by stage (predict; stepper.cpp).
+    struct BodyFlexStep {
+        Vec3 accel = Vec3::Zero();               ///< Σ m F / M
+        Mat3 firstMoment = Mat3::Zero();         ///< Σ m F X̃ᵀ / M
+        Mat3 L0 = Mat3::Zero();                  ///< the affine velocity gradient before the step
+        Vec3 vcBefore = Vec3::Zero(), cNew = Vec3::Zero();
+        Mat3 aNew = Mat3::Identity();
+    };
+    BodyFlexStep predictBodyAndFlex(const ForceSamples& fs, Real dt, StepReport& report);
+    Vec3 stepLoadModes(const Vec3& accel, const Mat3& firstMoment, Real dt);
+    void predictTwist(const ForceSamples& fs, const Mat3& L0, Real dt, StepReport& report);
+    bool connectionFolded(const std::array<std::vector<Mat3>, 3>& gammaBar, StepReport& report) const;
+    bool reconstructStep(StepReport& report);
+    void applyGauge(const Vec3& cNew, const Mat3& aNew, const Vec3& dq, std::vector<Vec3>& xNew) const;
+    // The chain step's stages after the prediction (finish; stepper.cpp).
+    struct Responders;
+    Responders findResponders(const std::vector<Collider>& colliders, const std::vector<Vec3>& x) const;
+    void pushBodyAndFlex(const std::vector<Collider>& colliders, const Responders& r, const Vec3& cNew,
+                         const Mat3& aNew, Real dt, std::vector<Vec3>& x);
+    void respondPoints(const std::vector<Collider>& colliders, const Responders& r, const Vec3& vcBefore, Real dt,
+                       std::vector<Vec3>& x);
+    void projectChainVolumes(const std::vector<Collider>& colliders, const Responders& r, std::vector<Vec3>& x,
+                             StepReport& report);
+    void landOnColliders(const std::vector<Collider>& colliders, const std::vector<Vec3>& x, const Mat3& A1,
+                         const Vec3& vcBefore, Real inelastic, bool jellyLanding);
+    void carryRate(bool antiWindup, const std::array<std::vector<Mat3>, 3>& gammaOld);
     void fitAffine(const std::vector<Vec3>& x, Vec3& centre, Mat3& affine) const;
     /// The viscosity's implicit decay of the flex's strain rate over a leapfrog kick (stepper.cpp).
     void viscousFlexKick(Real kick);
