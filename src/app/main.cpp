@@ -1,6 +1,7 @@
 // dgv: the command line. Parses arguments (CLI11), sets up threads, progress and signals, runs
 // one subcommand, and turns the two kinds of user-facing failure into one line and an exit code.
 
+#include <optional>
 #include "app/commands.hpp"
 #include "base/errors.hpp"
 #include "base/progress.hpp"
@@ -206,143 +207,159 @@ std::string unknownOptionMessage(CLI::App& cli, CLI::App& command, int argc, cha
 
 }  // namespace
 
-int main(int argc, char** argv) {
-    using namespace dgv;
-    CLI::App cli{
-        "dgv: deforming geometric volumes, rendered offscreen.\n"
-        "With no subcommand, renders the default scene (scenes/default.json) into out/."};
-    cli.footer(kExitCodes);
-    cli.set_version_flag("--version", std::string("dgv ") + DGV_VERSION_STRING);
-    int threads = 0;
-    bool quiet = false;
-    std::string progress = "auto";
-    cli.add_option("--threads", threads, "Worker threads (0: all cores)")->check(CLI::Range(0, 1024));
-    cli.add_flag("-q,--quiet", quiet, "No progress output");
-    cli.add_option("--progress", progress, "Progress display: auto, bar or log")
-        ->check(CLI::IsMember({"auto", "bar", "log"}));
-    cli.require_subcommand(0, 1);
-    // The global options are also taken after the subcommand ("dgv render x.json --threads 1"):
-    // what a subcommand does not know falls through to here. Subcommands inherit the setting.
-    cli.fallthrough();
+namespace {
 
+using namespace dgv;
+
+/// The subcommands' options and the CLI11 handles that say which was given.
+struct Commands {
     app::RenderOptions render;
-    auto* cRender = cli.add_subcommand("render", "Render a scene to an image sequence <out>/<name>.####.png (or .exr)");
-    cRender->add_option("scene", render.scene, "Scene file (JSON, see scenes/README.md)")->required();
-    cRender->add_option("--frames", render.frames, "Frame range A-B (or one frame N), within the scene's range");
-    cRender->add_option("--out", render.outDir, "Output folder (default: the scene's output.dir)");
-    cRender
-        ->add_option("--mesh", render.mesh,
+    app::SimulateOptions simulate;
+    app::GlnOptions gln;
+    app::ImgdiffOptions diff;
+    app::InfoOptions info;
+    app::BenchCommandOptions bench;
+    app::FarmOptions farm;
+    CLI::App *cRender = nullptr, *cSim = nullptr, *cGln = nullptr, *cDiff = nullptr, *cInfo = nullptr,
+             *cBench = nullptr, *cFarm = nullptr, *cFarmSubmit = nullptr, *cFarmStatus = nullptr,
+             *cFarmResubmit = nullptr;
+};
+
+void addRender(CLI::App& cli, Commands& c) {
+    c.cRender = cli.add_subcommand("render", "Render a scene to an image sequence <out>/<name>.####.png (or .exr)");
+    c.cRender->add_option("scene", c.render.scene, "Scene file (JSON, see scenes/README.md)")->required();
+    c.cRender->add_option("--frames", c.render.frames, "Frame range A-B (or one frame N), within the scene's range");
+    c.cRender->add_option("--out", c.render.outDir, "Output folder (default: the scene's output.dir)");
+    c.cRender
+        ->add_option("--mesh", c.render.mesh,
                      "Also write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply); "
                      "gltf also assembles the shot into one animated <out>/mesh/<name>.glb")
         ->check(CLI::IsMember({"ply", "obj", "gltf"}));
-    cRender->add_option("--width", render.width, "Image width in pixels")->check(CLI::Range(16, 16384));
-    cRender->add_option("--height", render.height, "Image height in pixels")->check(CLI::Range(16, 16384));
-    cRender->add_option("--resolution", render.resolution, "Image size WxH, e.g. 1920x1080 (overrides the scene)");
-    cRender->add_option("--gl-backend", render.glBackend, "OpenGL context: auto (OSMesa, else EGL), egl or osmesa")
+    c.cRender->add_option("--width", c.render.width, "Image width in pixels")->check(CLI::Range(16, 16384));
+    c.cRender->add_option("--height", c.render.height, "Image height in pixels")->check(CLI::Range(16, 16384));
+    c.cRender->add_option("--resolution", c.render.resolution, "Image size WxH, e.g. 1920x1080 (overrides the scene)");
+    c.cRender->add_option("--gl-backend", c.render.glBackend, "OpenGL context: auto (OSMesa, else EGL), egl or osmesa")
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}));
-    cRender
-        ->add_option("--format", render.format,
+    c.cRender
+        ->add_option("--format", c.render.format,
                      "Frame files: png (sRGB) or exr (linear half float RGBA with Z and contact channels, for "
-                     "compositing); overrides the scene's render.format")
+                     "compositing); overrides the scene's c.render.format")
         ->check(CLI::IsMember({"png", "exr"}));
-    cRender->add_option("--solver", render.solver, "Every object's material.solver: chain or one (docs/math.md)")
+    c.cRender->add_option("--solver", c.render.solver, "Every object's material.solver: chain or one (docs/math.md)")
         ->check(CLI::IsMember({"chain", "one"}));
-    cRender->add_flag("--contact-sheet", render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
-    cRender->add_flag("--movie", render.movie,
+    c.cRender->add_flag("--contact-sheet", c.render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
+    c.cRender->add_flag("--movie", c.render.movie,
                       "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");
-    cRender->add_flag("--resume", render.resume,
+    c.cRender->add_flag("--resume", c.render.resume,
                       "Keep frames already complete on disk (a readable PNG of that frame); render the rest, "
                       "the simulation restarting from its last valid state checkpoint");
-    cRender->add_flag("--farm-task", render.farmTask,
+    c.cRender->add_flag("--farm-task", c.render.farmTask,
                       "One task of a farm shot (dgv farm): restart from the state checkpoints without writing them, "
                       "stats.csv or the caches; only the frames are written");
-    cRender->footer(kExitCodes);
+    c.cRender->footer(kExitCodes);
 
-    app::SimulateOptions simulate;
-    auto* cSim = cli.add_subcommand(
+}
+
+void addSimulate(CLI::App& cli, Commands& c) {
+    c.cSim = cli.add_subcommand(
         "simulate", "Simulate a scene: <out>/stats.csv, and with --vdb the VDB cache <out>/vdb/<name>.####.vdb");
-    cSim->add_option("scene", simulate.scene, "Scene file (JSON, see scenes/README.md)")->required();
-    cSim->add_option("--frames", simulate.frames, "Last frame N, or A-B (frames before A are simulated, not written)");
-    cSim->add_option("--out", simulate.outDir, "Output folder (default: the scene's output.dir)");
-    cSim->add_option("--solver", simulate.solver, "Every object's material.solver: chain or one (docs/math.md)")
+    c.cSim->add_option("scene", c.simulate.scene, "Scene file (JSON, see scenes/README.md)")->required();
+    c.cSim->add_option("--frames", c.simulate.frames, "Last frame N, or A-B (frames before A are simulated, not written)");
+    c.cSim->add_option("--out", c.simulate.outDir, "Output folder (default: the scene's output.dir)");
+    c.cSim->add_option("--solver", c.simulate.solver, "Every object's material.solver: chain or one (docs/math.md)")
         ->check(CLI::IsMember({"chain", "one"}));
-    cSim->add_flag("--vdb", simulate.vdb, "Write the VDB cache (also on when the scene sets output.vdb)");
-    cSim->add_option("--mesh", simulate.mesh,
+    c.cSim->add_flag("--vdb", c.simulate.vdb, "Write the VDB cache (also on when the scene sets output.vdb)");
+    c.cSim->add_option("--mesh", c.simulate.mesh,
                      "Write each object's deformed surface per frame: ply or obj (<out>/mesh/<object>.####.ply); "
                      "gltf also assembles the shot into one animated <out>/mesh/<name>.glb")
         ->check(CLI::IsMember({"ply", "obj", "gltf"}));
-    cSim->add_flag("--resume", simulate.resume,
+    c.cSim->add_flag("--resume", c.simulate.resume,
                    "Continue from the last valid state checkpoint (<out>/state/<name>.####.dgvstate)");
-    cSim->footer(kExitCodes);
+    c.cSim->footer(kExitCodes);
 
-    app::GlnOptions gln;
-    auto* cGln = cli.add_subcommand("gln", "Gauss linking number of two closed curves");
-    cGln->add_option("curve_a", gln.curveA, "First closed curve: one 'x y z' vertex per line")->required();
-    cGln->add_option("curve_b", gln.curveB, "Second closed curve")->required();
-    cGln->add_option("--method", gln.method, "exact or seed")
+}
+
+void addGln(CLI::App& cli, Commands& c) {
+    c.cGln = cli.add_subcommand("gln", "Gauss linking number of two closed curves");
+    c.cGln->add_option("curve_a", c.gln.curveA, "First closed curve: one 'x y z' vertex per line")->required();
+    c.cGln->add_option("curve_b", c.gln.curveB, "Second closed curve")->required();
+    c.cGln->add_option("--method", c.gln.method, "exact or seed")
         ->capture_default_str()
         ->check(CLI::IsMember({"exact", "seed"}));
-    cGln->add_option("--tolerance", gln.tolerance, "Seed method's sampling tolerance")
+    c.cGln->add_option("--tolerance", c.gln.tolerance, "Seed method's sampling tolerance")
         ->capture_default_str()
         ->check(kPositive);
 
-    app::ImgdiffOptions diff;
-    auto* cDiff =
+}
+
+void addImgdiff(CLI::App& cli, Commands& c) {
+    c.cDiff =
         cli.add_subcommand("imgdiff", "Compare two images by the golden-image rule; exit 0 if they match, 1 if not");
-    cDiff->add_option("reference", diff.reference, "Reference PNG")->required();
-    cDiff->add_option("candidate", diff.candidate, "Candidate PNG")->required();
-    cDiff->add_option("--threshold", diff.threshold, "Per-pixel tolerance in 8-bit code values (max over channels)")
+    c.cDiff->add_option("reference", c.diff.reference, "Reference PNG")->required();
+    c.cDiff->add_option("candidate", c.diff.candidate, "Candidate PNG")->required();
+    c.cDiff->add_option("--threshold", c.diff.threshold, "Per-pixel tolerance in 8-bit code values (max over channels)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 255.0));
-    cDiff->add_option("--max-fraction", diff.maxFraction, "Fraction of pixels allowed over the threshold")
+    c.cDiff->add_option("--max-fraction", c.diff.maxFraction, "Fraction of pixels allowed over the threshold")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1.0));
-    cDiff->add_option("--hard", diff.hard, "Fail if any pixel differs by more than this (default off)")
+    c.cDiff->add_option("--hard", c.diff.hard, "Fail if any pixel differs by more than this (default off)")
         ->check(CLI::Range(0.0, 255.0));
-    cDiff->add_option("--diff-out", diff.diffDir, "On failure write <name>.new.png and <name>.diff.png here");
+    c.cDiff->add_option("--diff-out", c.diff.diffDir, "On failure write <name>.new.png and <name>.diff.png here");
 
-    app::InfoOptions info;
-    auto* cInfo = cli.add_subcommand("info", "What import and voxelisation make of a mesh");
-    cInfo->add_option("mesh", info.mesh, "Mesh file (any format assimp reads)")->required();
-    cInfo->add_option("--mesh-name", info.meshName, "Only the mesh or node of this name");
-    auto* oSize = cInfo->add_option("--voxel-size", info.voxelSize, "Voxel size in world units")->check(kPositive);
+}
+
+void addInfo(CLI::App& cli, Commands& c) {
+    c.cInfo = cli.add_subcommand("info", "What import and voxelisation make of a mesh");
+    c.cInfo->add_option("mesh", c.info.mesh, "Mesh file (any format assimp reads)")->required();
+    c.cInfo->add_option("--mesh-name", c.info.meshName, "Only the mesh or node of this name");
+    auto* oSize = c.cInfo->add_option("--voxel-size", c.info.voxelSize, "Voxel size in world units")->check(kPositive);
     auto* oRes =
-        cInfo->add_option("--resolution", info.resolution, "Lattice points along the longest side (default 64)")
+        c.cInfo->add_option("--resolution", c.info.resolution, "Lattice points along the longest side (default 64)")
             ->check(CLI::Range(2, 2048));
     oSize->excludes(oRes);
 
-    app::BenchCommandOptions bench;
-    auto* cBench = cli.add_subcommand("bench", "Benchmarks; print 'name: value unit' lines");
-    cBench->add_option(
-        "names", bench.names,
+}
+
+void addBench(CLI::App& cli, Commands& c) {
+    c.cBench = cli.add_subcommand("bench", "Benchmarks; print 'name: value unit' lines");
+    c.cBench->add_option(
+        "names", c.bench.names,
         "geometry, voxelise, render, gln, reconstruct, volume, vdb, step, reparametrise, contact (default: all)");
-    cBench->add_option("--repeats", bench.repeats, "Timed repetitions")
+    c.cBench->add_option("--repeats", c.bench.repeats, "Timed repetitions")
         ->capture_default_str()
         ->check(CLI::Range(1, 100));
-    cBench->add_flag("--quick", bench.quick, "Small problem sizes");
+    c.cBench->add_flag("--quick", c.bench.quick, "Small problem sizes");
 
-    app::FarmOptions farm;
-    auto* cFarm = cli.add_subcommand("farm", "Run a shot on a Slurm cluster: submit, status, resubmit (docs/farm.md)");
-    cFarm->require_subcommand(1, 1);
-    auto* cFarmSubmit =
-        cFarm->add_subcommand("submit", "Write the shot's Slurm batch scripts into the output folder and sbatch them");
-    cFarmSubmit->add_option("scene", farm.scene, "Scene file (JSON, see scenes/README.md)")->required();
-    cFarmSubmit->add_option("--chunk", farm.chunk, "Frames per render task")->required();
-    cFarmSubmit->add_option("--partition", farm.partition, "Slurm partition (default: the cluster's)");
-    cFarmSubmit->add_option("--out", farm.dir, "Output folder on shared storage (default: the scene's output.dir)");
-    cFarmSubmit->add_flag("--dry-run", farm.dryRun, "Print the scripts; write and submit nothing");
-    cFarmSubmit->add_flag("--vdb", farm.vdb, "The simulation job also writes the VDB cache");
-    cFarmSubmit->add_option("--mesh", farm.mesh, "The simulation job also writes the mesh cache: ply, obj or gltf")
+}
+
+void addFarm(CLI::App& cli, Commands& c) {
+    c.cFarm = cli.add_subcommand("farm", "Run a shot on a Slurm cluster: submit, status, resubmit (docs/farm.md)");
+    c.cFarm->require_subcommand(1, 1);
+    c.cFarmSubmit =
+        c.cFarm->add_subcommand("submit", "Write the shot's Slurm batch scripts into the output folder and sbatch them");
+    c.cFarmSubmit->add_option("scene", c.farm.scene, "Scene file (JSON, see scenes/README.md)")->required();
+    c.cFarmSubmit->add_option("--chunk", c.farm.chunk, "Frames per render task")->required();
+    c.cFarmSubmit->add_option("--partition", c.farm.partition, "Slurm partition (default: the cluster's)");
+    c.cFarmSubmit->add_option("--out", c.farm.dir, "Output folder on shared storage (default: the scene's output.dir)");
+    c.cFarmSubmit->add_flag("--dry-run", c.farm.dryRun, "Print the scripts; write and submit nothing");
+    c.cFarmSubmit->add_flag("--vdb", c.farm.vdb, "The simulation job also writes the VDB cache");
+    c.cFarmSubmit->add_option("--mesh", c.farm.mesh, "The simulation job also writes the mesh cache: ply, obj or gltf")
         ->check(CLI::IsMember({"ply", "obj", "gltf"}));
-    cFarmSubmit->add_flag("--contact-sheet", farm.contactSheet, "The check job also writes <name>.contact.png");
-    cFarmSubmit->add_flag("--movie", farm.movie, "The check job also writes <name>.mp4 (ffmpeg on the node)");
-    auto* cFarmStatus = cFarm->add_subcommand("status", "What of a submitted shot is done, running or failed");
-    cFarmStatus->add_option("dir", farm.dir, "The shot's output folder")->required();
-    cFarmStatus->add_flag("--check", farm.check, "Exit 1 unless every frame is complete");
-    auto* cFarmResubmit = cFarm->add_subcommand("resubmit", "Submit again the render tasks whose frames are missing");
-    cFarmResubmit->add_option("dir", farm.dir, "The shot's output folder")->required();
-    cFarmResubmit->add_flag("--dry-run", farm.dryRun, "Print what would be submitted");
+    c.cFarmSubmit->add_flag("--contact-sheet", c.farm.contactSheet, "The check job also writes <name>.contact.png");
+    c.cFarmSubmit->add_flag("--movie", c.farm.movie, "The check job also writes <name>.mp4 (ffmpeg on the node)");
+    c.cFarmStatus = c.cFarm->add_subcommand("status", "What of a submitted shot is done, running or failed");
+    c.cFarmStatus->add_option("dir", c.farm.dir, "The shot's output folder")->required();
+    c.cFarmStatus->add_flag("--check", c.farm.check, "Exit 1 unless every frame is complete");
+    c.cFarmResubmit = c.cFarm->add_subcommand("resubmit", "Submit again the render tasks whose frames are missing");
+    c.cFarmResubmit->add_option("dir", c.farm.dir, "The shot's output folder")->required();
+    c.cFarmResubmit->add_flag("--dry-run", c.farm.dryRun, "Print what would be submitted");
 
+}
+
+/// Parses the command line; an exit code where it is not a command to run (help, version, a
+/// bad option: one line), else nothing.
+std::optional<int> parseCommandLine(CLI::App& cli, int argc, char** argv) {
     // Each subcommand's --help names the global options it takes too.
     std::vector<CLI::App*> pending = cli.get_subcommands([](CLI::App*) { return true; });
     while (!pending.empty()) {
@@ -374,32 +391,30 @@ int main(int argc, char** argv) {
         return kExitBadInput;
     }
 
-    Progress::setQuiet(quiet);
-    Progress::setMode(progress == "bar" ? 1 : progress == "log" ? 2 : 0);
-    std::unique_ptr<tbb::global_control> threadLimit;
-    if (threads > 0)
-        threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                            static_cast<std::size_t>(threads));
-    // A signal at any time, even before the command starts or as it returns, ends the run as
-    // interrupted (the handlers are in place from the start: installSignalHandlers).
-    if (cancelRequested()) return interrupted();
-    auto command = [&]() -> int {
-        if (*cRender) return app::runRender(render);
-        if (*cInfo) return app::runInfo(info);
-        if (*cDiff) return app::runImgdiff(diff);
-        if (*cBench) return app::runBench(bench);
-        if (*cSim) return app::runSimulate(simulate);
-        if (*cGln) return app::runGln(gln);
-        if (*cFarm) {
-            farm.action = *cFarmSubmit ? "submit" : *cFarmStatus ? "status" : "resubmit";
-            return app::runFarm(farm);
-        }
-        app::RenderOptions def;
-        def.scene = app::defaultScenePath();
-        return app::runRender(def);
-    };
+    return std::nullopt;
+}
+
+/// Runs the command given (no subcommand: the default scene's render).
+int runCommand(Commands& c) {
+    if (*c.cRender) return app::runRender(c.render);
+    if (*c.cInfo) return app::runInfo(c.info);
+    if (*c.cDiff) return app::runImgdiff(c.diff);
+    if (*c.cBench) return app::runBench(c.bench);
+    if (*c.cSim) return app::runSimulate(c.simulate);
+    if (*c.cGln) return app::runGln(c.gln);
+    if (*c.cFarm) {
+        c.farm.action = *c.cFarmSubmit ? "submit" : *c.cFarmStatus ? "status" : "resubmit";
+        return app::runFarm(c.farm);
+    }
+    app::RenderOptions def;
+    def.scene = app::defaultScenePath();
+    return app::runRender(def);
+}
+
+/// Runs the command, turning what it throws into one line and an exit code.
+int runReportingErrors(Commands& c) {
     try {
-        const int rc = command();
+        const int rc = runCommand(c);
         return cancelRequested() && rc != kExitInterrupted ? interrupted() : rc;
     } catch (const InputError& e) {
         std::fprintf(stderr, "dgv: error: %s\n", oneLine(e.what()).c_str());
@@ -417,4 +432,46 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "dgv: error: %s\n", oneLine(e.what()).c_str());
         return kExitFailure;
     }
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+    using namespace dgv;
+    CLI::App cli{
+        "dgv: deforming geometric volumes, rendered offscreen.\n"
+        "With no subcommand, renders the default scene (scenes/default.json) into out/."};
+    cli.footer(kExitCodes);
+    cli.set_version_flag("--version", std::string("dgv ") + DGV_VERSION_STRING);
+    int threads = 0;
+    bool quiet = false;
+    std::string progress = "auto";
+    cli.add_option("--threads", threads, "Worker threads (0: all cores)")->check(CLI::Range(0, 1024));
+    cli.add_flag("-q,--quiet", quiet, "No progress output");
+    cli.add_option("--progress", progress, "Progress display: auto, bar or log")
+        ->check(CLI::IsMember({"auto", "bar", "log"}));
+    cli.require_subcommand(0, 1);
+    // The global options are also taken after the subcommand ("dgv render x.json --threads 1"):
+    // what a subcommand does not know falls through to here. Subcommands inherit the setting.
+    cli.fallthrough();
+
+    Commands c;
+    addRender(cli, c);
+    addSimulate(cli, c);
+    addGln(cli, c);
+    addImgdiff(cli, c);
+    addInfo(cli, c);
+    addBench(cli, c);
+    addFarm(cli, c);
+    if (const std::optional<int> rc = parseCommandLine(cli, argc, argv)) return *rc;
+
+    Progress::setQuiet(quiet);
+    Progress::setMode(progress == "bar" ? 1 : progress == "log" ? 2 : 0);
+    std::unique_ptr<tbb::global_control> threadLimit;
+    if (threads > 0)
+        threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                            static_cast<std::size_t>(threads));
+    // A signal at any time, even before the command starts or as it returns, ends the run as
+    // interrupted (the handlers are in place from the start: installSignalHandlers).
+    if (cancelRequested()) return interrupted();
+    return runReportingErrors(c);
 }
