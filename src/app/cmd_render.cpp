@@ -155,12 +155,12 @@ Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
     return sheet;
 }
 
-}  // namespace
-
-int runRender(const RenderOptions& options) {
-    SceneDesc scene = loadScene(options.scene);
+/// The command line's overrides of the scene (solver, frames, folder, mesh cache, size, format)
+/// and the GL backend asked for; bad values and sizes beyond the GL limit are refused.
+GlBackend applyRenderOverrides(const RenderOptions& options, SceneDesc& scene, int& first, int& last) {
+    first = scene.frameStart;
+    last = scene.frameEnd;
     if (!options.solver.empty()) overrideSolver(scene, options.solver);
-    int first = scene.frameStart, last = scene.frameEnd;
     if (!options.frames.empty()) parseFrameRange(options.frames, scene, first, last);
     if (!options.outDir.empty()) scene.output.dir = fs::absolute(options.outDir).lexically_normal().string();
     if (!options.mesh.empty()) scene.output.mesh = options.mesh;
@@ -183,8 +183,13 @@ int runRender(const RenderOptions& options) {
                              ") must stay within 16384");
     if (options.format == "exr") scene.render.format = RenderDesc::Format::Exr;
     if (options.format == "png") scene.render.format = RenderDesc::Format::Png;
+    return backend;
+}
+
+/// The combinations refused before anything is written: a movie of EXR frames, a curve scene as
+/// EXR, a movie without ffmpeg.
+void checkRenderOutputs(const RenderOptions& options, const SceneDesc& scene) {
     const bool exr = scene.render.format == RenderDesc::Format::Exr;
-    const std::string extension = scene.render.frameExtension();
     if (options.movie && exr)
         throw InputError("--movie", "",
                          "the preview movie is made from PNG frames, and this render writes EXR: render the PNG "
@@ -195,6 +200,51 @@ int runRender(const RenderOptions& options) {
     if (options.movie && !onPath("ffmpeg"))
         throw InputError("--movie", "",
                          "ffmpeg is not on PATH: install it (Debian: apt-get install ffmpeg) or drop --movie");
+}
+
+/// After --resume kept the last frames: stats.csv, the VDB cache and the checkpoints still reach
+/// the end of the range, as in an uninterrupted run. False when interrupted (said on stderr).
+bool simulateToEnd(DynamicsRun& dynamics, const SceneDesc& scene, int last) {
+    dynamics.restoreCheckpoint(last);
+    if (dynamics.done() < last && (dynamics.active() || scene.output.vdb))
+        logInfo("simulating frames " + std::to_string(dynamics.done() + 1) + "-" + std::to_string(last) +
+                " (kept) for stats.csv" + (scene.output.vdb ? " and the VDB cache" : ""));
+    while (dynamics.done() < last) {
+        if (cancelRequested()) {
+            std::fprintf(stderr, "dgv: interrupted; the files already written are complete\n");
+            return false;
+        }
+        dynamics.advanceTo(std::max(dynamics.done() + 1, scene.frameStart));
+    }
+    return true;
+}
+
+/// <name>.contact.png: the frames' thumbnails in a grid on the background.
+void writeContactSheetOf(const SceneDesc& scene, const RenderSettings& rs, const std::vector<Image>& thumbs,
+                         const PngWriteOptions& png, int first, int last) {
+    Image gap(1, 1);
+    for (int c = 0; c < 3; ++c)
+        gap.pixel(0, 0)[c] = static_cast<std::uint16_t>(std::lround(65535 * encodeSrgb(rs.background[c])));
+    gap.pixel(0, 0)[3] = rs.transparentBackground ? 0 : 65535;
+    const fs::path sheetPath = fs::path(scene.output.dir) / (scene.name + ".contact.png");
+    PngWriteOptions sheetPng = png;
+    sheetPng.text = {
+        {"Software", std::string("dgv ") + DGV_VERSION_STRING},
+        {"dgv:scene", fs::path(scene.path).filename().string()},  // as the frames': not the path as typed
+        {"dgv:frames", std::to_string(first) + "-" + std::to_string(last)}};
+    writePng(sheetPath, contactSheet(thumbs, gap), sheetPng);
+    logInfo("wrote the contact sheet " + sheetPath.string());
+}
+
+}  // namespace
+
+int runRender(const RenderOptions& options) {
+    SceneDesc scene = loadScene(options.scene);
+    int first = 0, last = 0;
+    const GlBackend backend = applyRenderOverrides(options, scene, first, last);
+    checkRenderOutputs(options, scene);
+    const bool exr = scene.render.format == RenderDesc::Format::Exr;
+    const std::string extension = scene.render.frameExtension();
     if (!scene.curves.empty()) {  // the GLN figures
         if (options.contactSheet)
             logInfo("--contact-sheet: '" + scene.name +
@@ -309,36 +359,9 @@ int runRender(const RenderOptions& options) {
         std::fprintf(stderr, "dgv: interrupted after the last frame; the frames written are complete\n");
         return kExitInterrupted;
     }
-    if (dynamics.done() < last && !options.farmTask) {
-        // --resume kept the last frames: stats.csv, the VDB cache and the checkpoints still reach
-        // the end of the range, as in an uninterrupted run.
-        dynamics.restoreCheckpoint(last);
-        if (dynamics.done() < last && (dynamics.active() || scene.output.vdb))
-            logInfo("simulating frames " + std::to_string(dynamics.done() + 1) + "-" + std::to_string(last) +
-                    " (kept) for stats.csv" + (scene.output.vdb ? " and the VDB cache" : ""));
-        while (dynamics.done() < last) {
-            if (cancelRequested()) {
-                std::fprintf(stderr, "dgv: interrupted; the files already written are complete\n");
-                return kExitInterrupted;
-            }
-            dynamics.advanceTo(std::max(dynamics.done() + 1, scene.frameStart));
-        }
-    }
+    if (dynamics.done() < last && !options.farmTask && !simulateToEnd(dynamics, scene, last)) return kExitInterrupted;
     if (const std::string glb = dynamics.finishCaches(); !glb.empty()) logInfo("wrote the shot's glTF " + glb);
-    if (options.contactSheet) {
-        Image gap(1, 1);
-        for (int c = 0; c < 3; ++c)
-            gap.pixel(0, 0)[c] = static_cast<std::uint16_t>(std::lround(65535 * encodeSrgb(rs.background[c])));
-        gap.pixel(0, 0)[3] = rs.transparentBackground ? 0 : 65535;
-        const fs::path sheetPath = fs::path(scene.output.dir) / (scene.name + ".contact.png");
-        PngWriteOptions sheetPng = png;
-        sheetPng.text = {
-            {"Software", std::string("dgv ") + DGV_VERSION_STRING},
-            {"dgv:scene", fs::path(scene.path).filename().string()},  // as the frames': not the path as typed
-            {"dgv:frames", std::to_string(first) + "-" + std::to_string(last)}};
-        writePng(sheetPath, contactSheet(thumbs, gap), sheetPng);
-        logInfo("wrote the contact sheet " + sheetPath.string());
-    }
+    if (options.contactSheet) writeContactSheetOf(scene, rs, thumbs, png, first, last);
     if (options.movie) logInfo("wrote the preview movie " + writePreviewMovie(scene, first, last));
     if (options.resume)
         logInfo("resume: kept " + std::to_string(kept) + " complete frames, rendered " +
