@@ -7,6 +7,7 @@
 #include "io/atomic_file.hpp"
 #include "io/gltf_cache.hpp"
 #include "io/state_file.hpp"
+#include "io/stats_csv.hpp"
 #include "io/vdb_cache.hpp"
 #include "io/vdb_mesh.hpp"
 #include "io/vdb_read.hpp"
@@ -67,7 +68,6 @@ DynamicsRun::DynamicsRun(const SceneDesc& scene, const std::vector<BuiltObject>&
     // torn frame").
     for (std::size_t i = 0; i < objects.size(); ++i)
         if (mSim->body(i)) mSim->setSurface(i, &objects[i].restMesh, &objects[i].embedding);
-    mRows.push_back(statsCsvHeader());
     if (mSim->active()) mSceneKey = sceneDynamicsKey(scene, lattices);
     if (mVdb || mMesh != MeshCacheFormat::None) mFrameKey = sceneFrameKey(scene);
 }
@@ -96,17 +96,13 @@ void DynamicsRun::record(const FrameStats& s) {
     if (mMesh != MeshCacheFormat::None && s.frame >= mFirstWritten && !mReadOnly) writeMeshes(s.frame);
     if (!mSim->active() && !mVdb) return;
     if (mVdb && s.frame >= mFirstWritten && !mReadOnly) writeVdb(s.frame);
-    mRows.push_back(statsCsvRow(s));
+    mStats.add(s);
     if (mReadOnly) return;
     writeStats();
     if (mSim->active() && s.frame > mScene.frameStart) writeCheckpoint(s.frame);
 }
 
-void DynamicsRun::writeStats() {
-    std::string text;
-    for (const std::string& r : mRows) text += r + "\n";
-    writeTextAtomically(fs::path(mScene.output.dir) / "stats.csv", text);
-}
+void DynamicsRun::writeStats() { mStats.write(mScene.output.dir); }
 
 void DynamicsRun::writeVdb(int frame) {
     std::vector<VdbObjectFrame> objs;
@@ -221,7 +217,7 @@ void DynamicsRun::writeCheckpoint(int frame) {
     c.dgvVersion = DGV_VERSION_STRING;
     c.sceneKey = mSceneKey;
     c.frame = frame;
-    c.statsRows.assign(mRows.begin() + 1, mRows.end());
+    c.statsRows = mStats.rows();
     c.objects = mSim->saveState();
     for (const ContactHistory& h : mContactHistory) c.contactAges.push_back(h.age());
     const fs::path path = stateFilePath(mScene.output.dir, mScene.name, frame);
@@ -310,8 +306,7 @@ int DynamicsRun::restoreCheckpoint(int frame) {
         mSim->restoreState(k, std::move(c.objects));
         mContactHistory.assign(mObjects.size(), ContactHistory());
         for (std::size_t i = 0; i < mObjects.size(); ++i) mContactHistory[i].restore(std::move(c.contactAges[i]));
-        mRows.assign(1, statsCsvHeader());
-        mRows.insert(mRows.end(), c.statsRows.begin(), c.statsRows.end());
+        mStats.restore(std::move(c.statsRows));
         if (!mReadOnly) writeStats();
         mLast = FrameStats();
         mLast.frame = k;

@@ -5,6 +5,7 @@
 
 #include "io/scene_build.hpp"
 #include "io/mesh_cache.hpp"
+#include "io/stats_csv.hpp"
 #include "view/contact_highlight.hpp"
 #include "sim/simulation.hpp"
 
@@ -61,8 +62,6 @@ public:
     /// frames (from the first written through done()) into <out>/mesh/<name>.glb (io/gltf_cache).
     /// Returns its path, or "" when the run writes none (another format, a farm render task).
     std::string finishCaches();
-    /// The rows written so far (header first).
-    const std::vector<std::string>& statsRows() const { return mRows; }
     const FrameStats& lastStats() const { return mLast; }
     /// Object i's per-point history of the contact set R (frames since each point was last in
     /// R), updated on every simulated frame; empty for objects that do not move.
@@ -84,7 +83,7 @@ private:
     std::unique_ptr<Simulation> mSim;
     int mDone = -1;         ///< last frame recorded
     int mFirstWritten = 0;  ///< VDB frames before this one are simulated, not written
-    std::vector<std::string> mRows;
+    StatsCsv mStats;
     FrameStats mLast;
     std::uint64_t mSceneKey = 0;  ///< what checkpoints must match (io/state_file.hpp)
     std::string mFrameKey;        ///< the VDB and mesh cache files' key (io/state_file.hpp, sceneFrameKey)

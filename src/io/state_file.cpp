@@ -6,6 +6,7 @@
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/checksum.hpp"
+#include "io/stats_csv.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -250,8 +250,4 @@ private:
     int mFrame = 0;
 };
 
-/// stats.csv's header line (no newline) and one frame's row.
-std::string statsCsvHeader();
-std::string statsCsvRow(const FrameStats& s);
-
 }  // namespace dgv
