@@ -2,6 +2,7 @@
 list(APPEND DGV_DYNAMICS_SOURCES
   dynamics/forces.cpp
   dynamics/body.cpp
+  dynamics/collider.cpp
   dynamics/stepper.cpp
   dynamics/cell_solve.cpp
   dynamics/stepper_one.cpp
