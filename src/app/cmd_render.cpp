@@ -17,6 +17,7 @@
 #include "io/state_file.hpp"
 #include "render/camera.hpp"
 #include "render/renderer.hpp"
+#include "view/camera_path.hpp"
 #include "view/frame_view.hpp"
 
 #include <algorithm>
@@ -55,41 +56,6 @@ void parseResolution(const std::string& text, int& width, int& height) {
     if (width < 16 || width > 16384 || height < 16 || height > 16384) bad();
 }
 
-/// The keyframed camera at `frame`: eye, target and fov interpolated linearly between the keys
-/// around it, held before the first and after the last.
-Camera keyframedCamera(const CameraDesc& c, Real frame, Real aspect) {
-    Camera cam;
-    cam.up = c.up;
-    const std::vector<CameraKey>& k = c.keys;
-    std::size_t i = 0;
-    while (i + 1 < k.size() && k[i + 1].frame <= frame) ++i;
-    const CameraKey& a = k[i];
-    const CameraKey& b = k[std::min(i + 1, k.size() - 1)];
-    const Real t = (b.frame > a.frame) ? std::clamp((frame - a.frame) / (b.frame - a.frame), Real(0), Real(1)) : 0;
-    cam.eye = (1 - t) * a.eye + t * b.eye;
-    cam.target = (1 - t) * a.target + t * b.target;
-    cam.fovYDegrees = (1 - t) * a.vertical(aspect) + t * b.vertical(aspect);
-    return cam;
-}
-
-Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real aspect) {
-    const CameraDesc& c = scene.camera;
-    if (c.type == CameraType::Keyframed) return keyframedCamera(c, frame, aspect);
-    if (c.type == CameraType::LookAt) {
-        Camera cam;
-        cam.eye = c.eye;
-        cam.target = c.target;
-        cam.up = c.up;
-        cam.fovYDegrees = c.vertical(aspect);
-        return cam;
-    }
-    // A full turn over the range comes back to the start on the frame after the last, so the
-    // sequence loops without a repeated frame.
-    const Real frames = scene.frameEnd - scene.frameStart + 1;
-    const Real angle = c.startDegrees + c.degrees * (frame - scene.frameStart) / frames;
-    return turntableCamera(bounds, angle, c.elevationDegrees, c.vertical(aspect), aspect, c.margin);
-}
-
 /// Thumbnail of at most `maxWidth` pixels across: a box filter over whole source pixels (on
 /// the sRGB-encoded 16-bit values: a preview, not a resample for compositing).
 Image thumbnail(const Image& src, int maxWidth) {
@@ -106,8 +72,6 @@ Image thumbnail(const Image& src, int maxWidth) {
     return t;
 }
 
-/// The thumbnails in a grid, row by row in frame order, ceil(sqrt(n)) columns; gaps are the
-/// background (or transparent).
 /// Writes `number` into `image` at its lower left corner: 3x5-pixel digits scaled by 2, white on
 /// a dark box, so a contact sheet says which frame each thumbnail is.
 void stampFrameNumber(Image& image, int number) {
@@ -138,6 +102,8 @@ void stampFrameNumber(Image& image, int number) {
                                 y0 + kPad + row * kScale + dy, 65535);
 }
 
+/// The thumbnails in a grid, row by row in frame order, ceil(sqrt(n)) columns; gaps are the
+/// background (or transparent).
 Image contactSheet(const std::vector<Image>& thumbs, const Image& gap) {
     const int n = static_cast<int>(thumbs.size());
     const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
