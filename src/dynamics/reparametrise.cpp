@@ -530,13 +530,6 @@ Reparametrisation reparametrise(const DeformableBody& body) {
         out.refused = why;
         return out;
     }
-    if (!(out.sampled >= kMinRemapSampled)) {
-        char why[200];
-        std::snprintf(why, sizeof why, "its samples see %.0f %% of its volume (parts under a third of a voxel thick)",
-                      100 * out.sampled);
-        out.refused = why;
-        return out;
-    }
     const std::vector<std::pair<long, Index>> ranked = rankCells(g, cov);
     if (ranked.empty()) {
         out.refused = "no cell of the new lattice lies inside its shape";
