@@ -452,12 +452,10 @@ std::size_t estimateLatticeBytes(Index gridCells, Index points, double bytesPerP
     return static_cast<std::size_t>(bytes);
 }
 
-Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, VoxeliseReport* report) {
-    const auto start = std::chrono::steady_clock::now();
-    const auto problems = settingProblems(settings);
-    if (!problems.empty()) throw InputError("", problems.front().field, problems.front().message);
-    const std::string where = settings.voxelSize > 0 ? "voxel_size" : "resolution";
+namespace {
 
+/// A mesh voxelise can read: triangles whose vertices exist, every coordinate finite.
+void checkMeshToVoxelise(const TriangleMesh& mesh) {
     if (mesh.triangles.empty()) throw InputError("", "", "the mesh has no triangles to voxelise");
     for (const auto& t : mesh.triangles)
         for (int v : t)
@@ -468,6 +466,107 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
         if (!allFiniteNoTrap(mesh.vertices[v]))
             throw InputError("", "", "vertex " + std::to_string(v) + " has a non-finite coordinate");
+
+}
+
+/// Step 2 of voxelise: each point inside by its exact signed crossing count, except where the
+/// counts are not the winding number's verdict (near or behind a hole): those points are flagged
+/// for an explicit winding-number evaluation and returned. Padding stays empty.
+std::vector<Index> classifyByCounts(const TriangleMesh& mesh, const Topology& topo, const RayCounts& rc,
+                                    const Vec3& origin, Real h, const Vec3i& dims, Real threshold,
+                                    std::vector<unsigned char>& mask) {
+    const Index nx = dims.x(), ny = dims.y(), nz = dims.z();
+    std::vector<Index> flagged;
+    const bool closedCycle = topo.openEdges.empty();
+    const std::vector<Box3> holes = closedCycle ? std::vector<Box3>{} : holeBoxes(mesh, topo);
+    const bool trustNothing = holes.size() > kMaxHoles;
+    struct IndexBox {
+        Real lo[3], hi[3];
+    };
+    std::vector<IndexBox> hole(holes.size());
+    for (std::size_t b = 0; b < holes.size(); ++b) {
+        const Real margin = 2 * holes[b].size().norm() + 2 * h;
+        for (int a = 0; a < 3; ++a) {
+            hole[b].lo[a] = (holes[b].min[a] - margin - origin[a]) / h;
+            hole[b].hi[a] = (holes[b].max[a] + margin - origin[a]) / h;
+        }
+    }
+    std::vector<std::vector<Index>> flaggedPerColumnBlock;
+    const Index columns = nx * ny;
+    const Index columnBlock = 256;
+    const Index blocks = (columns + columnBlock - 1) / columnBlock;
+    flaggedPerColumnBlock.resize(static_cast<std::size_t>(blocks));
+    parallelFor(
+        blocks,
+        [&](Index b) {
+            std::vector<Index>& mine = flaggedPerColumnBlock[static_cast<std::size_t>(b)];
+            std::vector<const IndexBox*> covering;
+            for (Index col = b * columnBlock; col < std::min(columns, (b + 1) * columnBlock); ++col) {
+                const Index i = col % nx, j = col / nx;
+                const bool border = i == 0 || j == 0 || i == nx - 1 || j == ny - 1;
+                covering.clear();
+                for (const IndexBox& hb : hole)
+                    if (hb.lo[0] <= Real(i) && Real(i) <= hb.hi[0] && hb.lo[1] <= Real(j) && Real(j) <= hb.hi[1])
+                        covering.push_back(&hb);
+                const std::int32_t totalCount = rc.total[static_cast<std::size_t>(col)];
+                for (Index k = 0; k < nz; ++k) {
+                    const Index c = col + columns * k;
+                    if (border || k == 0 || k == nz - 1) continue;  // padding stays empty
+                    const std::int32_t up = rc.up[static_cast<std::size_t>(c)];
+                    std::int32_t count = up;
+                    bool exact = trustNothing;
+                    if (!exact && !covering.empty()) {
+                        bool upBlocked = false, downBlocked = false;
+                        for (const IndexBox* hb : covering) {
+                            const bool below = Real(k)<hb->lo[2], above = Real(k)> hb->hi[2];
+                            if (!below && !above) exact = true;  // near a hole
+                            if (!above) upBlocked = true;        // the +k ray meets the hole
+                            if (!below) downBlocked = true;      // the -k ray meets the hole
+                        }
+                        if (!exact && upBlocked && downBlocked) exact = true;
+                        if (!exact && upBlocked) count = up - totalCount;  // the -k ray's count
+                    }
+                    if (exact)
+                        mine.push_back(c);
+                    else
+                        mask[static_cast<std::size_t>(c)] = Real(count) >= threshold;
+                }
+            }
+        },
+        1);
+    for (auto& v : flaggedPerColumnBlock) flagged.insert(flagged.end(), v.begin(), v.end());
+    flaggedPerColumnBlock.clear();
+
+    return flagged;
+}
+
+/// Step 3 of voxelise: the generalised winding number at the flagged points.
+void windingAtFlagged(const TriangleMesh& mesh, const std::vector<Index>& flagged, const Vec3& origin, Real h,
+                      const Vec3i& dims, Real threshold, std::vector<unsigned char>& mask) {
+    if (flagged.empty()) return;
+    const Index nx = dims.x(), ny = dims.y();
+    const Index columns = nx * ny;
+    const WindingTree tree(mesh);
+    parallelFor(
+        static_cast<Index>(flagged.size()),
+        [&](Index f) {
+            const Index c = flagged[static_cast<std::size_t>(f)];
+            const Vec3 u(Real(c % nx), Real((c / nx) % ny), Real(c / columns));
+            const Real w = tree.solidAngleSum(origin + h * u, kBetaVoxelise) / (4 * kPi);
+            mask[static_cast<std::size_t>(c)] = w >= threshold;
+        },
+        64);
+}
+
+}  // namespace
+
+Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, VoxeliseReport* report) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto problems = settingProblems(settings);
+    if (!problems.empty()) throw InputError("", problems.front().field, problems.front().message);
+    const std::string where = settings.voxelSize > 0 ? "voxel_size" : "resolution";
+
+    checkMeshToVoxelise(mesh);
 
     // Placement: n voxels of size h centred on the bounds along each axis (n h >= extent), plus
     // one empty cell of padding on every side. Point u sits at origin + h u.
@@ -520,85 +619,15 @@ Lattice voxelise(const TriangleMesh& mesh, const VoxeliseSettings& settings, Vox
     // 1. Exact signed crossing counts along +k.
     RayCounts rc = countCrossings(mesh, origin, h, dims);
 
-    // 2. Where the counts are not the winding number's verdict (near or behind a hole), flag the
-    //    point for an explicit winding-number evaluation.
+    // 2. Where the counts are not the winding number's verdict (near or behind a hole), the point
+    //    is flagged for an explicit winding-number evaluation.
     std::vector<unsigned char> mask(static_cast<std::size_t>(cells), 0);
-    std::vector<Index> flagged;
-    const bool closedCycle = topo.openEdges.empty();
-    const std::vector<Box3> holes = closedCycle ? std::vector<Box3>{} : holeBoxes(mesh, topo);
-    const bool trustNothing = holes.size() > kMaxHoles;
-    struct IndexBox {
-        Real lo[3], hi[3];
-    };
-    std::vector<IndexBox> hole(holes.size());
-    for (std::size_t b = 0; b < holes.size(); ++b) {
-        const Real margin = 2 * holes[b].size().norm() + 2 * h;
-        for (int a = 0; a < 3; ++a) {
-            hole[b].lo[a] = (holes[b].min[a] - margin - origin[a]) / h;
-            hole[b].hi[a] = (holes[b].max[a] + margin - origin[a]) / h;
-        }
-    }
-    const Real threshold = settings.windingThreshold;
-    std::vector<std::vector<Index>> flaggedPerColumnBlock;
-    const Index columns = nx * ny;
-    const Index columnBlock = 256;
-    const Index blocks = (columns + columnBlock - 1) / columnBlock;
-    flaggedPerColumnBlock.resize(static_cast<std::size_t>(blocks));
-    parallelFor(
-        blocks,
-        [&](Index b) {
-            std::vector<Index>& mine = flaggedPerColumnBlock[static_cast<std::size_t>(b)];
-            std::vector<const IndexBox*> covering;
-            for (Index col = b * columnBlock; col < std::min(columns, (b + 1) * columnBlock); ++col) {
-                const Index i = col % nx, j = col / nx;
-                const bool border = i == 0 || j == 0 || i == nx - 1 || j == ny - 1;
-                covering.clear();
-                for (const IndexBox& hb : hole)
-                    if (hb.lo[0] <= Real(i) && Real(i) <= hb.hi[0] && hb.lo[1] <= Real(j) && Real(j) <= hb.hi[1])
-                        covering.push_back(&hb);
-                const std::int32_t totalCount = rc.total[static_cast<std::size_t>(col)];
-                for (Index k = 0; k < nz; ++k) {
-                    const Index c = col + columns * k;
-                    if (border || k == 0 || k == nz - 1) continue;  // padding stays empty
-                    const std::int32_t up = rc.up[static_cast<std::size_t>(c)];
-                    std::int32_t count = up;
-                    bool exact = trustNothing;
-                    if (!exact && !covering.empty()) {
-                        bool upBlocked = false, downBlocked = false;
-                        for (const IndexBox* hb : covering) {
-                            const bool below = Real(k)<hb->lo[2], above = Real(k)> hb->hi[2];
-                            if (!below && !above) exact = true;  // near a hole
-                            if (!above) upBlocked = true;        // the +k ray meets the hole
-                            if (!below) downBlocked = true;      // the -k ray meets the hole
-                        }
-                        if (!exact && upBlocked && downBlocked) exact = true;
-                        if (!exact && upBlocked) count = up - totalCount;  // the -k ray's count
-                    }
-                    if (exact)
-                        mine.push_back(c);
-                    else
-                        mask[static_cast<std::size_t>(c)] = Real(count) >= threshold;
-                }
-            }
-        },
-        1);
-    for (auto& v : flaggedPerColumnBlock) flagged.insert(flagged.end(), v.begin(), v.end());
-    flaggedPerColumnBlock.clear();
+    const std::vector<Index> flagged =
+        classifyByCounts(mesh, topo, rc, origin, h, dims, settings.windingThreshold, mask);
     rc = RayCounts{};
 
     // 3. The generalised winding number where the counts were not trusted.
-    if (!flagged.empty()) {
-        const WindingTree tree(mesh);
-        parallelFor(
-            static_cast<Index>(flagged.size()),
-            [&](Index f) {
-                const Index c = flagged[static_cast<std::size_t>(f)];
-                const Vec3 u(Real(c % nx), Real((c / nx) % ny), Real(c / columns));
-                const Real w = tree.solidAngleSum(origin + h * u, kBetaVoxelise) / (4 * kPi);
-                mask[static_cast<std::size_t>(c)] = w >= threshold;
-            },
-            64);
-    }
+    windingAtFlagged(mesh, flagged, origin, h, dims, settings.windingThreshold, mask);
 
     const Index points = std::count_if(mask.begin(), mask.end(), [](unsigned char m) { return m != 0; });
     {
