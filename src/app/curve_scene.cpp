@@ -91,74 +91,11 @@ RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend) {
     return rs;
 }
 
-int renderCurveScene(const SceneDesc& scene, const RenderSettings& settings, int first, int last) {
-    // Everything that can fail on input fails before anything is written.
-    std::vector<std::vector<Vec3>> rest;
-    for (const CurveDesc& c : scene.curves) rest.push_back(curveAtRest(c));
-    if (scene.camera.type != CameraType::LookAt)
-        throw InputError(scene.path, "camera.type", "a scene with curves needs a look_at camera");
+namespace {
 
-    Renderer renderer(settings);
-    const std::string glName = renderer.glRenderer();
-    Camera cam;
-    cam.eye = scene.camera.eye;
-    cam.target = scene.camera.target;
-    cam.up = scene.camera.up;
-    cam.fovYDegrees = scene.camera.vertical(Real(settings.width) / Real(settings.height));
-
-    ensureDirectory(scene.output.dir);
-    PngWriteOptions png;
-    png.bitDepth = scene.render.bitDepth;
-    png.alpha = scene.render.transparent;
-
-    logInfo("rendering frames " + std::to_string(first) + "-" + std::to_string(last) + " of '" + scene.name +
-            "' (2 curves) into " + scene.output.dir + " (" + glName + ")");
-    std::vector<FrameRow> rows;
-    Progress progress("render", last - first + 1, "frames");
-    FrameScene frameScene;
-    frameScene.groundPlane = scene.render.ground;
-    for (int frame = first; frame <= last; ++frame) {
-        if (cancelRequested()) break;
-        std::vector<std::vector<Vec3>> now(rest.size());
-        frameScene.meshes.clear();
-        for (std::size_t i = 0; i < rest.size(); ++i) {
-            const Vec3 off = scene.curves[i].offsetAt(frame);
-            for (const Vec3& p : rest[i]) now[i].push_back(p + off);
-            const TriangleMesh tube = makeTube(now[i], scene.curves[i].tubeRadius, 16);
-            DrawMesh dm;
-            dm.positions = tube.vertices;
-            dm.triangles = tube.triangles;
-            dm.colour = scene.curves[i].color;
-            frameScene.meshes.push_back(std::move(dm));
-        }
-        FrameRow row;
-        row.frame = frame;
-        row.distance = curveDistance(now[0], now[1]);
-        for (Real tol : scene.gln.seedTolerances) row.seed.push_back(glnSeed(now[0], now[1], tol).gln);
-        const GlnResult r = linkingNumber(now[0], now[1]);
-        row.exact =
-            r.status == GlnStatus::Certified ? static_cast<Real>(r.linking) : std::numeric_limits<Real>::quiet_NaN();
-        if (r.status == GlnStatus::Intersect)
-            logInfo("frame " + std::to_string(frame) +
-                    ": the curves intersect; the exact GLN is undefined (nan in gln.csv)");
-        else if (r.status == GlnStatus::Uncertain)
-            logWarning("frame " + std::to_string(frame) + ": the exact GLN could not be certified (nan in gln.csv)");
-        rows.push_back(row);
-
-        Image image = renderer.render(frameScene, cam);
-        char num[32];
-        std::snprintf(num, sizeof num, "%04d", frame);
-        const std::string path = (fs::path(scene.output.dir) / (scene.name + "." + num + ".png")).string();
-        png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
-                    {"Source", glName},
-                    {"dgv:scene", fs::path(scene.path).filename().string()},
-                    {"dgv:frame", std::to_string(frame)}};
-        writePng(path, image, png);
-        progress.step(path);
-    }
-    progress.finish();
-
-    // gln.csv and the plots cover the frames rendered.
+/// <out>/gln.csv: per frame rendered, the closest approach, the seed method's GLN at each
+/// tolerance and the exact one.
+void writeGlnCsv(const SceneDesc& scene, const std::vector<FrameRow>& rows) {
     std::string csv = "frame,distance";
     for (Real t : scene.gln.seedTolerances) csv += ",gln_seed_tol" + tolName(t);
     csv += ",gln_exact\n";
@@ -170,6 +107,10 @@ int renderCurveScene(const SceneDesc& scene, const RenderSettings& settings, int
     }
     writeTextAtomically(fs::path(scene.output.dir) / "gln.csv", csv);
 
+}
+
+/// <out>/gln_distance.png, gln_frame.png and gln_vs_distance.png: the figures of the frames rendered.
+void writeGlnPlots(const SceneDesc& scene, const std::vector<FrameRow>& rows) {
     const Vec3 exactColour(0.0, 0.45, 0.74);
     const Vec3 seedColours[] = {Vec3(0.85, 0.33, 0.10), Vec3(0.30, 0.62, 0.15), Vec3(0.49, 0.18, 0.56)};
     std::vector<double> frames, dist, exact;
@@ -245,6 +186,81 @@ int renderCurveScene(const SceneDesc& scene, const RenderSettings& settings, int
     pv.series = glnSeries(dist, false, true);
     clipGln(pv);
     writePng(fs::path(scene.output.dir) / "gln_vs_distance.png", drawPlot(pv), plotPng);
+
+}
+
+}  // namespace
+
+int renderCurveScene(const SceneDesc& scene, const RenderSettings& settings, int first, int last) {
+    // Everything that can fail on input fails before anything is written.
+    std::vector<std::vector<Vec3>> rest;
+    for (const CurveDesc& c : scene.curves) rest.push_back(curveAtRest(c));
+    if (scene.camera.type != CameraType::LookAt)
+        throw InputError(scene.path, "camera.type", "a scene with curves needs a look_at camera");
+
+    Renderer renderer(settings);
+    const std::string glName = renderer.glRenderer();
+    Camera cam;
+    cam.eye = scene.camera.eye;
+    cam.target = scene.camera.target;
+    cam.up = scene.camera.up;
+    cam.fovYDegrees = scene.camera.vertical(Real(settings.width) / Real(settings.height));
+
+    ensureDirectory(scene.output.dir);
+    PngWriteOptions png;
+    png.bitDepth = scene.render.bitDepth;
+    png.alpha = scene.render.transparent;
+
+    logInfo("rendering frames " + std::to_string(first) + "-" + std::to_string(last) + " of '" + scene.name +
+            "' (2 curves) into " + scene.output.dir + " (" + glName + ")");
+    std::vector<FrameRow> rows;
+    Progress progress("render", last - first + 1, "frames");
+    FrameScene frameScene;
+    frameScene.groundPlane = scene.render.ground;
+    for (int frame = first; frame <= last; ++frame) {
+        if (cancelRequested()) break;
+        std::vector<std::vector<Vec3>> now(rest.size());
+        frameScene.meshes.clear();
+        for (std::size_t i = 0; i < rest.size(); ++i) {
+            const Vec3 off = scene.curves[i].offsetAt(frame);
+            for (const Vec3& p : rest[i]) now[i].push_back(p + off);
+            const TriangleMesh tube = makeTube(now[i], scene.curves[i].tubeRadius, 16);
+            DrawMesh dm;
+            dm.positions = tube.vertices;
+            dm.triangles = tube.triangles;
+            dm.colour = scene.curves[i].color;
+            frameScene.meshes.push_back(std::move(dm));
+        }
+        FrameRow row;
+        row.frame = frame;
+        row.distance = curveDistance(now[0], now[1]);
+        for (Real tol : scene.gln.seedTolerances) row.seed.push_back(glnSeed(now[0], now[1], tol).gln);
+        const GlnResult r = linkingNumber(now[0], now[1]);
+        row.exact =
+            r.status == GlnStatus::Certified ? static_cast<Real>(r.linking) : std::numeric_limits<Real>::quiet_NaN();
+        if (r.status == GlnStatus::Intersect)
+            logInfo("frame " + std::to_string(frame) +
+                    ": the curves intersect; the exact GLN is undefined (nan in gln.csv)");
+        else if (r.status == GlnStatus::Uncertain)
+            logWarning("frame " + std::to_string(frame) + ": the exact GLN could not be certified (nan in gln.csv)");
+        rows.push_back(row);
+
+        Image image = renderer.render(frameScene, cam);
+        char num[32];
+        std::snprintf(num, sizeof num, "%04d", frame);
+        const std::string path = (fs::path(scene.output.dir) / (scene.name + "." + num + ".png")).string();
+        png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
+                    {"Source", glName},
+                    {"dgv:scene", fs::path(scene.path).filename().string()},
+                    {"dgv:frame", std::to_string(frame)}};
+        writePng(path, image, png);
+        progress.step(path);
+    }
+    progress.finish();
+
+    // gln.csv and the plots cover the frames rendered.
+    writeGlnCsv(scene, rows);
+    writeGlnPlots(scene, rows);
 
     if (cancelRequested()) {
         std::fprintf(stderr, "dgv: interrupted; the frames written are complete\n");
