@@ -118,7 +118,6 @@ RemapGrid gridAround(const std::vector<Vec3>& x, Real h) {
 /// velocity of the samples inside; with a rest shape to carry, each new cell's old tetrahedron
 /// of its first sample.
 struct Coverage {
-    std::vector<unsigned char> covered;  ///< per sample
     std::vector<int> inside;             ///< per cell: its samples inside the old shape
     std::vector<Vec3> velocitySum;       ///< per cell
     std::vector<std::array<Index, 4>> cellTet;
@@ -129,7 +128,7 @@ Coverage sampleCoverage(const LatticeCells& cells, const std::vector<Vec3>& x, c
     const Real h = g.h;
     const Index cellCount = g.cellCount();
     Coverage cov;
-    cov.covered.assign(at(cellCount * kSubSamples), 0);
+    std::vector<unsigned char> covered(at(cellCount * kSubSamples), 0);  // per sample
     cov.inside.assign(at(cellCount), 0);
     cov.velocitySum.assign(at(cellCount), Vec3::Zero());
     cov.cellTet.assign(carriesRest ? at(cellCount) : 0, {{kNoPoint, kNoPoint, kNoPoint, kNoPoint}});
@@ -150,11 +149,11 @@ Coverage sampleCoverage(const LatticeCells& cells, const std::vector<Vec3>& x, c
                         const std::size_t c = g.cellIndex(cell);
                         const std::size_t f =
                             c * kSubSamples + at((ii % kSub) + kSub * ((jj % kSub) + kSub * (kk % kSub)));
-                        if (cov.covered[f]) continue;
+                        if (covered[f]) continue;
                         const Vec3 p = g.origin + (h / kSub) * (Vec3(ii, jj, kk) + Vec3::Constant(Real(0.5)));
                         Sample s;
                         if (!barycentric(ids, v0, mi, p, s)) continue;
-                        cov.covered[f] = 1;
+                        covered[f] = 1;
                         ++cov.inside[c];
                         cov.velocitySum[c] += interpolate(s, v);
                         if (carriesRest && cov.cellTet[c][0] == kNoPoint) cov.cellTet[c] = ids;
@@ -353,16 +352,14 @@ void interpolateAtNewPoints(const DeformableBody& body, const Lattice& grid, con
 
 /// The new points' velocities put right so they carry the old points' momentum and angular
 /// momentum about the centre; returns the turn δω given back, as the matrix r ↦ δω × r.
-Mat3 keepMomentaOnRemap(const DeformableBody& body, const Lattice& grid, const std::vector<Vec3>& xNew,
+Mat3 keepMomentaOnRemap(const DeformableBody& body, const std::vector<Real>& mNew, const std::vector<Vec3>& xNew,
                         std::vector<Vec3>& vNew) {
-    const DynamicsSettings& set = body.settings();
     const Lattice& old = body.lattice();
     const std::vector<Vec3>& x = body.positions();
     const std::vector<Vec3>& v = body.velocities();
-    const Index n = grid.size();
+    const Index n = static_cast<Index>(xNew.size());
     // The same momentum as the old points carry over the last step.
     const std::vector<Real>& mOld = body.masses();
-    const std::vector<Real> mNew = pointMasses(grid, set.density, MassRule::CellShare);
     Vec3 pOld = Vec3::Zero(), pNew = Vec3::Zero();
     Real massOld = 0, massNew = 0;
     for (Index p = 0; p < old.size(); ++p) {
@@ -391,15 +388,14 @@ Mat3 keepMomentaOnRemap(const DeformableBody& body, const Lattice& grid, const s
     for (Index p = 0; p < n; ++p) vNew[at(p)] += spin.cross(xNew[at(p)] - cNew);
     Mat3 spinMatrix;  // spinMatrix r = spin × r
     spinMatrix << 0, -spin.z(), spin.y(), spin.z(), 0, -spin.x(), -spin.y(), spin.x(), 0;
-
     return spinMatrix;
 }
 
 /// The body's dynamic state on the new lattice, at its rest positions.
-void stateOnNewLattice(const DeformableBody& body, const Lattice& grid, const std::vector<Vec3>& xNew,
-                       const std::vector<Vec3>& vNew, const Mat3& spinMatrix, DeformableBodyState& s) {
+void stateOnNewLattice(const DeformableBody& body, const Lattice& grid, const std::vector<Real>& mNew,
+                       const std::vector<Vec3>& xNew, const std::vector<Vec3>& vNew, const Mat3& spinMatrix,
+                       DeformableBodyState& s) {
     const Index n = grid.size();
-    const std::vector<Real> mNew = pointMasses(grid, body.settings().density, MassRule::CellShare);
     s.positions = xNew;
     s.velocities = vNew;
     const Real dt = body.lastStepLength();
@@ -581,9 +577,10 @@ Reparametrisation reparametrise(const DeformableBody& body) {
         for (auto& gm : restGamma) gm.assign(at(n), Mat3::Zero());
     interpolateAtNewPoints(body, grid, g, cov, corners, carriesRest, vNew, restGamma);
     const std::vector<Vec3> xNew = restPositions(grid);
-    const Mat3 spinMatrix = keepMomentaOnRemap(body, grid, xNew, vNew);
+    const std::vector<Real> mNew = pointMasses(grid, set.density, MassRule::CellShare);
+    const Mat3 spinMatrix = keepMomentaOnRemap(body, mNew, xNew, vNew);
     DeformableBodyState& s = out.state;
-    stateOnNewLattice(body, grid, xNew, vNew, spinMatrix, s);
+    stateOnNewLattice(body, grid, mNew, xNew, vNew, spinMatrix, s);
     // The rest shape (putty): its connection from above, and the flex's rest stretch keeping the
     // elastic part of the flex, A P⁻¹: on the new lattice A = 1, so P' = P A⁻¹ (det 1). The yield
     // goes on from there.

@@ -627,38 +627,36 @@ DeformableBody::BodyFlexStep DeformableBody::predictBodyAndFlex(const ForceSampl
 /// Returns the step of the amplitudes.
 Vec3 DeformableBody::stepLoadModes(const Vec3& accel, const Mat3& firstMoment, Real dt) {
     const Index n = mLat.size();
-    Vec3 dq = Vec3::Zero();
-    if (!mLoad.empty()) {
-        const Mat3 K = firstMoment * mS0inv;
-        Vec3 fq;
-        for (std::size_t i = 0; i < 3; ++i)
-            fq[static_cast<Index>(i)] = accel.dot(mLoad.massSum[i]) + K.cwiseProduct(mLoad.firstMoment[i]).sum();
-        if (mSet.shapeStiffness > 0 && !mQ.isZero()) {
-            if (mLoadGamma[0].empty() || mQ != mQTarget) {
-                std::vector<Vec3> displaced(at(n));
-                parallelFor(n, [&](Index p) {
-                    displaced[at(p)] = mPinnedPositions[at(p)] + mQ[0] * mLoad.w[0][at(p)] + mQ[1] * mLoad.w[1][at(p)] +
-                                       mQ[2] * mLoad.w[2][at(p)];
-                });
-                GeometricState target;
-                computeGeometricState(mLat, displaced, target, BoundaryStencils::Realisable);
-                mLoadGamma = std::move(target.christoffel);
-                mQTarget = mQ;
-            }
-        } else {
-            for (auto& g : mLoadGamma) g.clear();
+    if (mLoad.empty()) return Vec3::Zero();
+    const Mat3 K = firstMoment * mS0inv;
+    Vec3 fq;
+    for (std::size_t i = 0; i < 3; ++i)
+        fq[static_cast<Index>(i)] = accel.dot(mLoad.massSum[i]) + K.cwiseProduct(mLoad.firstMoment[i]).sum();
+    if (mSet.shapeStiffness > 0 && !mQ.isZero()) {
+        if (mLoadGamma[0].empty() || mQ != mQTarget) {
+            std::vector<Vec3> displaced(at(n));
+            parallelFor(n, [&](Index p) {
+                displaced[at(p)] = mPinnedPositions[at(p)] + mQ[0] * mLoad.w[0][at(p)] + mQ[1] * mLoad.w[1][at(p)] +
+                                   mQ[2] * mLoad.w[2][at(p)];
+            });
+            GeometricState target;
+            computeGeometricState(mLat, displaced, target, BoundaryStencils::Realisable);
+            mLoadGamma = std::move(target.christoffel);
+            mQTarget = mQ;
         }
-        const Vec3 qdd = Vec3(mLoad.mass.ldlt().solve(fq)) - mSet.shapeStiffness * mQ;
-        mQdot = (mQdot + dt * qdd) / (1 + mSet.damping * dt);
-        Vec3 qNew = mQ + dt * mQdot;
-        const Real strain = qNew.cwiseAbs().dot(mLoad.strain);
-        if (strain > mSet.maxLoadStrain) {
-            qNew *= mSet.maxLoadStrain / strain;
-            mQdot = (qNew - mQ) / dt;
-        }
-        dq = qNew - mQ;
-        mQ = qNew;
+    } else {
+        for (auto& g : mLoadGamma) g.clear();
     }
+    const Vec3 qdd = Vec3(mLoad.mass.ldlt().solve(fq)) - mSet.shapeStiffness * mQ;
+    mQdot = (mQdot + dt * qdd) / (1 + mSet.damping * dt);
+    Vec3 qNew = mQ + dt * mQdot;
+    const Real strain = qNew.cwiseAbs().dot(mLoad.strain);
+    if (strain > mSet.maxLoadStrain) {
+        qNew *= mSet.maxLoadStrain / strain;
+        mQdot = (qNew - mQ) / dt;
+    }
+    const Vec3 dq = qNew - mQ;
+    mQ = qNew;
     return dq;
 }
 
@@ -839,7 +837,7 @@ StepReport DeformableBody::predict(const ForceField& field, Real frame, Real dt)
     // 2. Body and flex (Störmer-Verlet; flex projected onto SL(3)).
     t = Clock::now();
     const BodyFlexStep bf = predictBodyAndFlex(fs, dt, report);
-    const Vec3 dq = mLoad.empty() ? Vec3(Vec3::Zero()) : stepLoadModes(bf.accel, bf.firstMoment, dt);
+    const Vec3 dq = stepLoadModes(bf.accel, bf.firstMoment, dt);
     report.bodyFlexSeconds = since(t);
 
     // 3. Twist: eq 76 with W split into rotation and stretch (file comment).
