@@ -19,6 +19,9 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <map>
+#include <memory>
+#include <numeric>
 
 namespace dgv {
 
@@ -30,6 +33,16 @@ namespace {
 
 constexpr int kShadowMapSize = 2048;
 constexpr int kMaxTextureSize = 16384;
+/// The texture unit of a material's base-colour map (0: the shadow map, 2: the ground's marks,
+/// 3: the shadow map's depths).
+constexpr int kBaseColourUnit = 4;
+
+/// The Blinn-Phong exponent whose lobe matches a GGX highlight of perceptual roughness r
+/// (α = r², s = 2/α² − 2), kept within 2..4096 so a mirror stays a small bright spot.
+double shininessOfRoughness(double r) {
+    const double alpha = std::max(r * r, 1e-3);
+    return std::clamp(2.0 / (alpha * alpha) - 2.0, 2.0, 4096.0);
+}
 
 /// IEEE half (binary16) bits -> float (subnormals, infinities and NaN included).
 float halfToFloat(std::uint16_t h) {
@@ -106,12 +119,22 @@ struct MeshSlot {
     double creaseDegrees = -1;
     bool closed = false;            // every edge shared by exactly 2 opposite triangles
     bool inverted = false;          // closed but CW from outside (negative volume)
+    std::vector<int> triangleMaterials;  // the look as last seen (DrawMesh), part of the topology
+    std::vector<std::array<Eigen::Vector2f, 3>> cornerUvs;
     std::vector<int> sourceVertex;  // render vertex -> mesh vertex
-    std::vector<std::array<int, 3>> renderTriangles;
-    std::vector<int> adjacencyStart;  // render vertex -> range in `adjacency`
-    std::vector<int> adjacency;       // triangles of the render vertex's group
-    std::vector<float> interleaved;   // position xyz, normal xyz, scalar per render vertex
+    std::vector<int> normalGroup;   // render vertex -> its smoothing group (normals are per group)
+    std::vector<Eigen::Vector2f> renderUv;  // render vertex -> texture coordinate (empty: none)
+    std::vector<std::array<int, 3>> renderTriangles;  // in the index buffer's order (by material)
+    std::vector<int> adjacencyStart;  // smoothing group -> range in `adjacency`
+    std::vector<int> adjacency;       // triangles of the group
+    std::vector<float> interleaved;   // position xyz, normal xyz, scalar, uv per render vertex
     std::vector<Vec3f> faceNormals;   // area-weighted (cross product of two edges)
+    /// The index buffer's runs of one material (−1: the mesh's colour), in material order.
+    struct Range {
+        int material = -1;
+        GLsizei first = 0, count = 0;  // in indices
+    };
+    std::vector<Range> ranges;
 };
 
 /// True when every directed edge (a, b) of the triangles is matched by exactly one (b, a) and
@@ -203,29 +226,78 @@ void buildRenderTopology(MeshSlot& slot, std::size_t nv, const std::vector<Vec3f
             groupCount[v] = groups;
         }
     }
-    // Render vertices: (v, group) in order.
-    std::vector<int> firstRender(nv + 1, 0);
-    for (std::size_t v = 0; v < nv; ++v) firstRender[v + 1] = firstRender[v] + groupCount[v];
-    const std::size_t nr = static_cast<std::size_t>(firstRender[nv]);
-    slot.sourceVertex.resize(nr);
-    for (std::size_t v = 0; v < nv; ++v)
-        for (int g = 0; g < groupCount[v]; ++g)
-            slot.sourceVertex[static_cast<std::size_t>(firstRender[v] + g)] = static_cast<int>(v);
-    slot.renderTriangles.resize(nt);
+    // Smoothing groups: (v, group) in order. A render vertex is a group's corners with one
+    // texture coordinate: a UV seam splits the vertex but not its normal.
+    std::vector<int> firstGroup(nv + 1, 0);
+    for (std::size_t v = 0; v < nv; ++v) firstGroup[v + 1] = firstGroup[v] + groupCount[v];
+    const std::size_t ng = static_cast<std::size_t>(firstGroup[nv]);
+    const bool uvs = slot.cornerUvs.size() == nt;
+    std::vector<int> cornerRender(nt * 3);
+    slot.sourceVertex.clear();
+    slot.normalGroup.clear();
+    slot.renderUv.clear();
+    if (!uvs) {
+        slot.sourceVertex.resize(ng);
+        slot.normalGroup.resize(ng);
+        for (std::size_t v = 0; v < nv; ++v)
+            for (int g = 0; g < groupCount[v]; ++g) {
+                const std::size_t r = static_cast<std::size_t>(firstGroup[v] + g);
+                slot.sourceVertex[r] = static_cast<int>(v);
+                slot.normalGroup[r] = static_cast<int>(r);
+            }
+        for (std::size_t c = 0; c < nt * 3; ++c)
+            cornerRender[c] = firstGroup[static_cast<std::size_t>(tris[c / 3][c % 3])] + cornerGroup[c];
+    } else {
+        for (std::size_t v = 0; v < nv; ++v) {
+            const std::size_t first = slot.sourceVertex.size();
+            for (int a = start[v]; a < start[v + 1]; ++a) {
+                const std::size_t f = static_cast<std::size_t>(fan[static_cast<std::size_t>(a)]);
+                for (std::size_t k = 0; k < 3; ++k) {
+                    if (tris[f][k] != static_cast<int>(v)) continue;
+                    const int g = firstGroup[v] + cornerGroup[f * 3 + k];
+                    const Eigen::Vector2f& uv = slot.cornerUvs[f][k];
+                    std::size_t r = first;
+                    while (r < slot.sourceVertex.size() && !(slot.normalGroup[r] == g && slot.renderUv[r] == uv)) ++r;
+                    if (r == slot.sourceVertex.size()) {
+                        slot.sourceVertex.push_back(static_cast<int>(v));
+                        slot.normalGroup.push_back(g);
+                        slot.renderUv.push_back(uv);
+                    }
+                    cornerRender[f * 3 + k] = static_cast<int>(r);
+                }
+            }
+        }
+    }
+    std::vector<std::array<int, 3>> byTriangle(nt);
     for (std::size_t f = 0; f < nt; ++f)
-        for (int k = 0; k < 3; ++k)
-            slot.renderTriangles[f][static_cast<std::size_t>(k)] =
-                firstRender[static_cast<std::size_t>(tris[f][k])] + cornerGroup[f * 3 + static_cast<std::size_t>(k)];
-    slot.adjacencyStart.assign(nr + 1, 0);
-    for (const auto& t : slot.renderTriangles)
-        for (int k = 0; k < 3; ++k) ++slot.adjacencyStart[static_cast<std::size_t>(t[k]) + 1];
-    for (std::size_t i = 0; i < nr; ++i) slot.adjacencyStart[i + 1] += slot.adjacencyStart[i];
-    slot.adjacency.assign(static_cast<std::size_t>(slot.adjacencyStart[nr]), 0);
+        for (std::size_t k = 0; k < 3; ++k) byTriangle[f][k] = cornerRender[f * 3 + k];
+    slot.adjacencyStart.assign(ng + 1, 0);
+    for (std::size_t c = 0; c < nt * 3; ++c)
+        ++slot.adjacencyStart[static_cast<std::size_t>(slot.normalGroup[static_cast<std::size_t>(cornerRender[c])]) + 1];
+    for (std::size_t i = 0; i < ng; ++i) slot.adjacencyStart[i + 1] += slot.adjacencyStart[i];
+    slot.adjacency.assign(static_cast<std::size_t>(slot.adjacencyStart[ng]), 0);
     std::vector<int> fill(slot.adjacencyStart.begin(), slot.adjacencyStart.end() - 1);
-    for (std::size_t f = 0; f < nt; ++f)
-        for (int k = 0; k < 3; ++k)
-            slot.adjacency[static_cast<std::size_t>(fill[static_cast<std::size_t>(slot.renderTriangles[f][k])]++)] =
-                static_cast<int>(f);
+    for (std::size_t c = 0; c < nt * 3; ++c) {
+        const std::size_t g = static_cast<std::size_t>(slot.normalGroup[static_cast<std::size_t>(cornerRender[c])]);
+        slot.adjacency[static_cast<std::size_t>(fill[g]++)] = static_cast<int>(c / 3);
+    }
+    // The index buffer in runs of one material (stable: triangle order within a run).
+    slot.ranges.clear();
+    const bool materials = slot.triangleMaterials.size() == nt;
+    std::vector<std::size_t> order(nt);
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    if (materials)
+        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+            return slot.triangleMaterials[a] < slot.triangleMaterials[b];
+        });
+    slot.renderTriangles.resize(nt);
+    for (std::size_t i = 0; i < nt; ++i) {
+        slot.renderTriangles[i] = byTriangle[order[i]];
+        const int m = materials ? slot.triangleMaterials[order[i]] : -1;
+        if (slot.ranges.empty() || slot.ranges.back().material != m)
+            slot.ranges.push_back({m, static_cast<GLsizei>(3 * i), 0});
+        slot.ranges.back().count += 3;
+    }
     slot.closed = isClosedOriented(tris);
 }
 
@@ -345,6 +417,9 @@ struct Renderer::Impl {
     GLuint decalTexture = 0;
     std::vector<float> decalTexels;
     std::vector<MeshSlot> meshes;
+    /// Materials' textures by image (textureOf), the images kept alive so the keys stay theirs.
+    std::map<const TextureImage*, GLuint> textures;
+    std::vector<std::shared_ptr<const TextureImage>> texturesKept;
     std::vector<std::uint16_t> readback;
     // Half-float bits -> 16-bit code: sRGB-encoded colour, linear alpha (exact, in double).
     std::vector<std::uint16_t> srgbOfHalf, unormOfHalf;
@@ -477,6 +552,7 @@ struct Renderer::Impl {
         glDeleteBuffers(1, &groundEbo);
         glDeleteFramebuffers(1, &shadowFbo);
         glDeleteTextures(1, &shadowDepth);
+        for (const auto& [image, id] : textures) glDeleteTextures(1, &id);
         glDeleteSamplers(1, &depthSampler);
         if (decalTexture) glDeleteTextures(1, &decalTexture);
         releaseTargets();
@@ -575,10 +651,28 @@ struct Renderer::Impl {
         targetFactor = factor;
     }
 
+    /// The look's lists are empty or one entry a triangle, and name materials the mesh has.
+    static void checkLook(const DrawMesh& mesh) {
+        const std::size_t nt = mesh.triangles.size();
+        if (!mesh.triangleMaterials.empty() && mesh.triangleMaterials.size() != nt)
+            throw InputError("", "render",
+                             "the per-triangle materials have " + std::to_string(mesh.triangleMaterials.size()) +
+                                 " entries for a mesh with " + std::to_string(nt) + " triangles");
+        if (!mesh.cornerUvs.empty() && mesh.cornerUvs.size() != nt)
+            throw InputError("", "render",
+                             "the texture coordinates have " + std::to_string(mesh.cornerUvs.size()) +
+                                 " triangles' worth for a mesh with " + std::to_string(nt) + " triangles");
+        for (int m : mesh.triangleMaterials)
+            if (m < -1 || m >= static_cast<int>(mesh.materials.size()))
+                throw InputError("", "render",
+                                 "a triangle refers to material " + std::to_string(m) + " of a mesh with " +
+                                     std::to_string(mesh.materials.size()));
+    }
+
     /// Area-weighted vertex normals (sum of the unnormalised face normals of each render
     /// vertex's smoothing group, in triangle order), the interleaved vertex data, the upload.
     void uploadMesh(MeshSlot& slot, const DrawMesh& mesh) {
-        constexpr int kStride = 7;  // position xyz, normal xyz, scalar
+        constexpr int kStride = 9;  // position xyz, normal xyz, scalar, uv
         if (!slot.vao) {
             glGenVertexArrays(1, &slot.vao);
             glGenBuffers(1, &slot.vbo);
@@ -593,6 +687,9 @@ struct Renderer::Impl {
             glEnableVertexAttribArray(2);
             glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, kStride * sizeof(float),
                                   reinterpret_cast<const void*>(6 * sizeof(float)));
+            glEnableVertexAttribArray(3);
+            glVertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, kStride * sizeof(float),
+                                  reinterpret_cast<const void*>(7 * sizeof(float)));
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, slot.ebo);  // recorded in the VAO
             glBindVertexArray(0);
         }
@@ -610,6 +707,7 @@ struct Renderer::Impl {
             throw InputError("", "render",
                              "the per-vertex scalar has " + std::to_string(mesh.scalar.size()) +
                                  " values for a mesh with " + std::to_string(nv) + " vertices");
+        checkLook(mesh);
         slot.faceNormals.resize(nt);
         parallelFor(static_cast<Index>(nt), [&](Index f) {
             const auto& t = mesh.triangles[static_cast<std::size_t>(f)];
@@ -619,12 +717,15 @@ struct Renderer::Impl {
                 mesh.positions[static_cast<std::size_t>(t[2])] - mesh.positions[static_cast<std::size_t>(t[0])];
             slot.faceNormals[static_cast<std::size_t>(f)] = e1.cross(e2).cast<float>();
         });
-        const bool topologyChanged =
-            slot.vertexCount != nv || slot.triangles != mesh.triangles || slot.creaseDegrees != settings.creaseDegrees;
+        const bool topologyChanged = slot.vertexCount != nv || slot.triangles != mesh.triangles ||
+                                     slot.creaseDegrees != settings.creaseDegrees ||
+                                     slot.triangleMaterials != mesh.triangleMaterials || slot.cornerUvs != mesh.cornerUvs;
         if (topologyChanged) {
             // The split is decided on the positions of this frame and kept while the triangles
             // stay the same, so a deforming mesh keeps its vertex count and index buffer.
             slot.triangles = mesh.triangles;
+            slot.triangleMaterials = mesh.triangleMaterials;
+            slot.cornerUvs = mesh.cornerUvs;
             slot.vertexCount = nv;
             slot.creaseDegrees = settings.creaseDegrees;
             if (mesh.creasePositions.size() == nv) {
@@ -654,8 +755,9 @@ struct Renderer::Impl {
         parallelFor(static_cast<Index>(nr), [&](Index ri) {
             const std::size_t r = static_cast<std::size_t>(ri);
             const std::size_t v = static_cast<std::size_t>(slot.sourceVertex[r]);
+            const std::size_t g = static_cast<std::size_t>(slot.normalGroup[r]);
             Vec3f n = Vec3f::Zero();
-            for (int a = slot.adjacencyStart[r]; a < slot.adjacencyStart[r + 1]; ++a)
+            for (int a = slot.adjacencyStart[g]; a < slot.adjacencyStart[g + 1]; ++a)
                 n += slot.faceNormals[static_cast<std::size_t>(slot.adjacency[static_cast<std::size_t>(a)])];
             const float len = n.norm();
             if (len > 0 && std::isfinite(len))
@@ -670,6 +772,9 @@ struct Renderer::Impl {
             out[4] = n.y();
             out[5] = n.z();
             out[6] = mesh.scalar.empty() ? 0.0f : static_cast<float>(mesh.scalar[v]);
+            // t = 1 − v: the texture's rows go up from its top row (TextureImage), v from its bottom
+            out[7] = slot.renderUv.empty() ? 0.0f : slot.renderUv[r].x();
+            out[8] = slot.renderUv.empty() ? 0.0f : 1.0f - slot.renderUv[r].y();
         });
 
         glBindBuffer(GL_ARRAY_BUFFER, slot.vbo);
@@ -776,13 +881,58 @@ struct Renderer::Impl {
     /// in, so lit surfaces never compare against themselves); one wound inside out the opposite
     /// ones; an open mesh is two-sided.
     void drawTriangles(std::size_t i, bool fromLight) {
+        bindTriangles(i, fromLight);
+        glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+
+    /// drawTriangles' culling and VAO, for drawing mesh i's runs one by one.
+    void bindTriangles(std::size_t i, bool fromLight) {
         if (meshes[i].closed)
             glEnable(GL_CULL_FACE);
         else
             glDisable(GL_CULL_FACE);
         glCullFace(meshes[i].inverted != fromLight ? GL_FRONT : GL_BACK);
         glBindVertexArray(meshes[i].vao);
-        glDrawElements(GL_TRIANGLES, meshes[i].indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+
+    /// The GL texture of a material's image, made on first use (sRGB, so samples come back
+    /// linear; mipmapped, repeating as glTF's default sampler) and kept while the renderer lives.
+    GLuint textureOf(const std::shared_ptr<const TextureImage>& image) {
+        auto found = textures.find(image.get());
+        if (found != textures.end()) return found->second;
+        GLuint id = 0;
+        glGenTextures(1, &id);
+        glActiveTexture(GL_TEXTURE0 + kBaseColourUnit);
+        glBindTexture(GL_TEXTURE_2D, id);
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8_ALPHA8, image->width, image->height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+                     image->rgba.data());
+        glGenerateMipmap(GL_TEXTURE_2D);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+        glActiveTexture(GL_TEXTURE0);
+        checkGlError("uploading a material's texture");
+        textures.emplace(image.get(), id);
+        texturesKept.push_back(image);
+        return id;
+    }
+
+    /// A material's uniforms (mesh.frag): albedo, texture, highlight width and metalness; null:
+    /// the mesh's own colour, as before materials.
+    void setSurface(const ShaderProgram& p, const DrawMesh& m, const SurfaceMaterial* mat) {
+        setVec3(p, "uAlbedo", (mat ? mat->baseColour : m.colour).cwiseMax(0.0).cwiseMin(1.0));
+        const bool textured = mat && mat->baseColourMap && mat->baseColourMap->width > 0;
+        setInt(p, "uTextured", textured ? 1 : 0);
+        if (textured) {
+            const GLuint id = textureOf(mat->baseColourMap);
+            glActiveTexture(GL_TEXTURE0 + kBaseColourUnit);
+            glBindTexture(GL_TEXTURE_2D, id);
+            glActiveTexture(GL_TEXTURE0);
+        }
+        setFloat(p, "uSurfaceShininess", mat && mat->roughness >= 0 ? shininessOfRoughness(mat->roughness) : 0.0);
+        setFloat(p, "uMetallic", mat ? std::clamp(mat->metallic, 0.0, 1.0) : 0.0);
     }
 
     /// Sets the lights and shadow uniforms shared by mesh.frag and ground.frag (lighting.glsl).
@@ -1137,10 +1287,10 @@ struct Renderer::Impl {
                 setMat4(p, "uClipFromWorld", f.clipFromWorld);
                 setLighting(p, f.lights);
                 setInt(p, "uFootprint", 0);
+                setInt(p, "uBaseColourMap", kBaseColourUnit);
                 setVec3(p, "uEye", camera.eye);
                 bound = &p;
             }
-            setVec3(p, "uAlbedo", m.colour.cwiseMax(0.0).cwiseMin(1.0));
             setFloat(p, "uOpacity", std::clamp(m.opacity, 0.0, 1.0));
             if (!m.scalar.empty()) {
                 setVec3(p, "uRampLow", m.ramp.low.cwiseMax(0.0).cwiseMin(1.0));
@@ -1152,7 +1302,12 @@ struct Renderer::Impl {
                 const Real span = m.ramp.max - m.ramp.min;
                 setFloat(p, "uRampInvSpan", span > 0 ? 1.0 / span : 0.0);
             }
-            drawTriangles(i, false);
+            bindTriangles(i, false);
+            for (const MeshSlot::Range& r : meshes[i].ranges) {
+                setSurface(p, m, r.material >= 0 ? &m.materials[static_cast<std::size_t>(r.material)] : nullptr);
+                glDrawElements(GL_TRIANGLES, r.count, GL_UNSIGNED_INT,
+                               reinterpret_cast<const void*>(static_cast<std::size_t>(r.first) * sizeof(GLuint)));
+            }
         }
         glBindVertexArray(0);
         glDisable(GL_CULL_FACE);

@@ -6,6 +6,7 @@
 
 #include "base/image.hpp"
 #include "base/light.hpp"
+#include "base/material.hpp"
 #include "base/types.hpp"
 #include "render/camera.hpp"
 
@@ -43,6 +44,14 @@ struct DrawMesh {
     /// list is first seen, instead of this frame's positions. A deforming mesh passes its rest
     /// shape, so a render of frames A-B splits like a render of the whole range.
     std::vector<Vec3> creasePositions;
+    /// The file's look (base/material.hpp; both per-triangle lists empty: every triangle in
+    /// `colour`). Per triangle its material (an index into `materials`; −1: `colour`) and its
+    /// corners' texture coordinates. A material's albedo is its base colour times its texture;
+    /// its roughness sets the highlights' width, its metalness tints them and darkens the diffuse.
+    /// Where the highlight scalar is > 0 the ramp's colour replaces the albedo.
+    std::vector<int> triangleMaterials;
+    std::vector<std::array<Eigen::Vector2f, 3>> cornerUvs;
+    std::vector<SurfaceMaterial> materials;
     /// 1: opaque. Below 1 (down to 0) the surface is drawn see-through, after the opaque meshes
     /// and the ground, blended over them in scene order without writing depth (an x-ray view of
     /// what lies behind, e.g. a body's contact behind a collider); it still casts its full shadow.

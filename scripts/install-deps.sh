@@ -9,7 +9,7 @@ set -euo pipefail
 
 build_pkgs=(build-essential cmake ninja-build pkg-config
   libeigen3-dev libtbb-dev libassimp-dev libosmesa6-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libpng-dev
-  libopenexr-dev libopenvdb-dev libboost-iostreams-dev nlohmann-json3-dev libcli11-dev catch2)
+  libopenexr-dev libstb-dev libopenvdb-dev libboost-iostreams-dev nlohmann-json3-dev libcli11-dev catch2)
 test_pkgs=(assimp-testmodels libopenvdb-tools openexr blender python3-numpy)
 fuzz_pkgs=(clang libclang-rt-14-dev)
 farm_pkgs=(slurm-wlm munge)

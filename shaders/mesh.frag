@@ -7,12 +7,21 @@
 #endif
 in vec3 vPosition;
 in vec3 vNormal;
+in vec2 vUv;
 #if DGV_SCALAR
 in float vScalar;
 #endif
 
 uniform vec3 uEye;
 uniform vec3 uAlbedo;
+// The material (DrawMesh::materials): uAlbedo times the base-colour map at vUv where uTextured
+// (an sRGB texture, so samples are linear); a highlight exponent of its own for every light that
+// has one (uSurfaceShininess > 0, from its roughness); its metalness, which tints the highlights
+// with the albedo (Schlick's F0) and takes the diffuse away. All at their defaults: the plain look.
+uniform int uTextured;
+uniform sampler2D uBaseColourMap;
+uniform float uSurfaceShininess;
+uniform float uMetallic;
 // Highlight ramp (render/renderer.hpp, ScalarRamp): where the scalar is > 0 the albedo is
 // mix(uRampLow, uRampHigh, clamp((s - uRampMin) * uRampInvSpan, 0, 1)).
 uniform vec3 uRampLow;
@@ -35,6 +44,28 @@ layout(location = 1) out vec4 fragContact;
 out vec4 fragColour;
 #endif
 
+float shininessFor(float lightShininess) {
+    return uSurfaceShininess > 0.0 && lightShininess > 0.0 ? uSurfaceShininess : lightShininess;
+}
+
+// specular() with a coloured F0 (a metal's).
+vec3 specularF0(vec3 n, vec3 v, vec3 l, vec3 colour, float shininess, vec3 f0) {
+    float nl = max(dot(n, l), 0.0);
+    if (nl <= 0.0) return vec3(0.0);
+    vec3 h = normalize(l + v);
+    float nh = max(dot(n, h), 0.0);
+    float m = 1.0 - max(dot(v, h), 0.0);
+    float m2 = m * m;
+    vec3 fresnel = f0 + (1.0 - f0) * (m2 * m2 * m);
+    float lobe = (shininess + 8.0) / 25.1327412 * powShininess(nh, shininess);
+    return colour * fresnel * (lobe * nl);
+}
+
+vec3 surfaceSpecular(vec3 n, vec3 v, vec3 l, vec3 colour, float lightShininess, vec3 f0) {
+    float s = shininessFor(lightShininess);
+    return uMetallic > 0.0 ? specularF0(n, v, l, colour, s, f0) : specular(n, v, l, colour, s);
+}
+
 void main() {
     float len = length(vNormal);
     vec3 n = len > 0.0 ? vNormal / len : vec3(0.0, 1.0, 0.0);
@@ -42,6 +73,7 @@ void main() {
     vec3 v = normalize(uEye - vPosition);
 
     vec3 albedo = uAlbedo;
+    if (uTextured != 0) albedo *= texture(uBaseColourMap, vUv).rgb;
     vec3 emitted = vec3(0.0);
     float highlighted = 0.0;
 #if DGV_SCALAR
@@ -53,6 +85,12 @@ void main() {
     }
 #endif
 
+    vec3 f0 = vec3(0.04);
+    if (uMetallic > 0.0 && highlighted == 0.0) {
+        f0 = mix(vec3(0.04), albedo, uMetallic);
+        albedo *= 1.0 - uMetallic;
+        emitted += uMetallic * f0 * hemisphere(reflect(-v, n));  // the sky in the metal
+    }
     // Diffuse from every light and the sky, then each light's highlight: the sums in this order.
     float key = keyVisibility(vPosition, n);
 #if DGV_STUDIO_RIG
@@ -64,8 +102,8 @@ void main() {
                     + uLightColour[2] * max(dot(n, rimDir), 0.0)
                     + hemisphere(n);
     vec3 colour = albedo * irradiance
-                + specular(n, v, keyDir, uLightColour[0], uLightShininess[0]) * key
-                + specular(n, v, rimDir, uLightColour[2], uLightShininess[2])
+                + surfaceSpecular(n, v, keyDir, uLightColour[0], uLightShininess[0], f0) * key
+                + surfaceSpecular(n, v, rimDir, uLightColour[2], uLightShininess[2], f0)
                 + emitted;
 #else
     vec3 irradiance = vec3(0.0);
@@ -80,7 +118,7 @@ void main() {
         if (uLightShininess[i] <= 0.0) continue;
         vec3 l, c;
         lightAt(i, vPosition, l, c);
-        colour += specular(n, v, l, c, uLightShininess[i]) * (i == uShadowLight ? key : 1.0);
+        colour += surfaceSpecular(n, v, l, c, uLightShininess[i], f0) * (i == uShadowLight ? key : 1.0);
     }
     colour += emitted;
 #endif

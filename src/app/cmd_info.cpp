@@ -23,6 +23,7 @@ int runInfo(const InfoOptions& options) {
                          "or run 'dgv render' or 'dgv simulate' on the scene)");
     MeshImportOptions importOptions;
     importOptions.meshName = options.meshName;
+    importOptions.materials = true;  // what a scene without `color` draws
     MeshImportReport importReport;
     TriangleMesh mesh = importMesh(options.mesh, importOptions, &importReport);
     if (const std::string w = unlikelySizeWarning(mesh, options.mesh); !w.empty()) logWarning(w);
@@ -45,6 +46,8 @@ int runInfo(const InfoOptions& options) {
     std::printf("file: %s\n", options.mesh.c_str());
     std::printf("meshes_merged: %zu\n", importReport.meshesMerged);
     std::printf("unit_scale: %.6g\n", importReport.unitScale);
+    std::printf("materials: %zu  (%zu with a texture, %zu textures not read)\n", importReport.materials,
+                importReport.textures, importReport.texturesMissing);
     std::printf("vertices: %zu\n", m.vertices);
     std::printf("triangles: %zu\n", m.triangles);
     std::printf("degenerate_dropped: %zu\n", importReport.degenerateDropped);

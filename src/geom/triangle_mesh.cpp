@@ -60,9 +60,51 @@ std::size_t dropDegenerateTriangles(TriangleMesh& mesh) {
         const Real longest2 = std::max({e0.squaredNorm(), e1.squaredNorm(), e2.squaredNorm()});
         return !(e0.cross(-e2).norm() > 1e-14 * longest2);
     };
-    mesh.triangles.erase(std::remove_if(mesh.triangles.begin(), mesh.triangles.end(), degenerate),
-                         mesh.triangles.end());
-    return before - mesh.triangles.size();
+    // Compacted in place with the per-triangle look beside them.
+    const bool look = mesh.triangleMaterials.size() == before && mesh.cornerUvs.size() == before;
+    std::size_t kept = 0;
+    for (std::size_t f = 0; f < before; ++f) {
+        if (degenerate(mesh.triangles[f])) continue;
+        mesh.triangles[kept] = mesh.triangles[f];
+        if (look) {
+            mesh.triangleMaterials[kept] = mesh.triangleMaterials[f];
+            mesh.cornerUvs[kept] = mesh.cornerUvs[f];
+        }
+        ++kept;
+    }
+    mesh.triangles.resize(kept);
+    if (look) {
+        mesh.triangleMaterials.resize(kept);
+        mesh.cornerUvs.resize(kept);
+    }
+    return before - kept;
+}
+
+namespace {
+/// Reverses triangle f's winding (its corners 1 and 2, their texture coordinates with them).
+void turnTriangle(TriangleMesh& mesh, std::size_t f) {
+    std::swap(mesh.triangles[f][1], mesh.triangles[f][2]);
+    if (mesh.cornerUvs.size() == mesh.triangles.size()) std::swap(mesh.cornerUvs[f][1], mesh.cornerUvs[f][2]);
+}
+}  // namespace
+
+Vec3 meanSurfaceColour(const TriangleMesh& mesh, const Vec3& fallback) {
+    if (!mesh.hasMaterials()) return fallback;
+    std::vector<Vec3> colours(mesh.materials.size());
+    for (std::size_t m = 0; m < colours.size(); ++m) colours[m] = mesh.materials[m].meanColour();
+    Vec3 sum = Vec3::Zero();
+    Real area = 0;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+        const auto& t = mesh.triangles[f];
+        const Vec3& a = mesh.vertices[static_cast<std::size_t>(t[0])];
+        const Real af = (mesh.vertices[static_cast<std::size_t>(t[1])] - a)
+                            .cross(mesh.vertices[static_cast<std::size_t>(t[2])] - a)
+                            .norm();
+        const int m = mesh.triangleMaterials[f];
+        sum += af * (m >= 0 && static_cast<std::size_t>(m) < colours.size() ? colours[static_cast<std::size_t>(m)] : fallback);
+        area += af;
+    }
+    return area > 0 ? Vec3(sum / area) : fallback;
 }
 
 Box3 meshBounds(const TriangleMesh& mesh) {
@@ -120,7 +162,7 @@ MeshReport analyseMesh(const TriangleMesh& mesh) {
 void transformMesh(TriangleMesh& mesh, const Mat3& linear, const Vec3& translation) {
     for (Vec3& v : mesh.vertices) v = linear * v + translation;
     if (linear.determinant() < 0)
-        for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+        for (std::size_t f = 0; f < mesh.triangles.size(); ++f) turnTriangle(mesh, f);
 }
 
 OrientReport orientOutward(TriangleMesh& mesh) {
@@ -175,7 +217,7 @@ OrientReport orientOutward(TriangleMesh& mesh) {
     }
     if (report.flippedParts > 0)
         for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
-            if (turn[triPart[i]]) std::swap(mesh.triangles[i][1], mesh.triangles[i][2]);
+            if (turn[triPart[i]]) turnTriangle(mesh, i);
     return report;
 }
 

@@ -3,6 +3,7 @@
 /// @brief Triangle meshes as dgv holds them after import: world-space vertices (double),
 /// counter-clockwise triangles seen from outside (outward normals by the right-hand rule).
 
+#include "base/material.hpp"
 #include "base/types.hpp"
 
 #include <array>
@@ -14,10 +15,33 @@ namespace dgv {
 struct TriangleMesh {
     std::vector<Vec3> vertices;                 ///< #V positions, world units
     std::vector<std::array<int, 3>> triangles;  ///< #T vertex indices, CCW from outside
+    /// The file's look (io/mesh_import with MeshImportOptions::materials), kept in step with
+    /// `triangles` by every function here that drops or turns triangles. Per triangle: its
+    /// material (an index into `materials`, −1: none, drawn in its object's colour) and its
+    /// corners' texture coordinates (seams are per corner, so the weld by position keeps them).
+    /// Both empty: no look of its own.
+    std::vector<int> triangleMaterials;
+    std::vector<std::array<Eigen::Vector2f, 3>> cornerUvs;
+    std::vector<SurfaceMaterial> materials;
 
     std::size_t vertexCount() const { return vertices.size(); }
     std::size_t triangleCount() const { return triangles.size(); }
+    /// Whether the triangles carry materials and texture coordinates of their own.
+    bool hasMaterials() const {
+        return !materials.empty() && triangleMaterials.size() == triangles.size() && cornerUvs.size() == triangles.size();
+    }
+    /// Drops the look (a scene's `color` overrides the file's).
+    void clearMaterials() {
+        triangleMaterials.clear();
+        cornerUvs.clear();
+        materials.clear();
+    }
 };
+
+/// The colour of the surface seen from afar: each triangle's material's mean colour (factor times
+/// its map's mean), weighted by the triangle's area; `fallback` for the triangles without one, and
+/// for a mesh without materials.
+Vec3 meanSurfaceColour(const TriangleMesh& mesh, const Vec3& fallback);
 
 /// What `dgv info` reports about a mesh's topology and size.
 struct MeshReport {

@@ -3,6 +3,7 @@
 #include "base/errors.hpp"
 #include "base/progress.hpp"
 #include "io/read_file.hpp"
+#include "io/texture.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -10,6 +11,7 @@
 #include <assimp/DefaultLogger.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
+#include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -22,6 +24,8 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <map>
+#include <memory>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -235,6 +239,11 @@ struct Collector {
     TriangleMesh mesh;
     MeshImportReport report;
     std::size_t meshesSelected = 0;  ///< with or without triangles
+    bool look = false;               ///< MeshImportOptions::materials
+    /// The file's materials as read so far: its index in mesh.materials, −1 none, −2 not read yet.
+    std::vector<int> materialIndex;
+    /// Textures decoded, by the reference the file makes (one decode for materials sharing one).
+    std::map<std::string, std::shared_ptr<const TextureImage>> textures;
 
     Collector(const aiScene* s, const std::string& p, const std::string& w) : scene(s), path(p), wanted(w) {}
 
@@ -287,7 +296,110 @@ struct Collector {
             }
             if (flip) std::swap(t[1], t[2]);
             mesh.triangles.push_back(t);
+            if (look) addCornerLook(m, face, flip);
         }
+    }
+
+    /// Triangle's material and its corners' texture coordinates (zero where the mesh has none).
+    void addCornerLook(const aiMesh* m, const aiFace& face, bool flip) {
+        mesh.triangleMaterials.push_back(materialOf(m->mMaterialIndex));
+        std::array<Eigen::Vector2f, 3> uv;
+        for (std::size_t k = 0; k < 3; ++k) {
+            uv[k] = Eigen::Vector2f::Zero();
+            if (!m->mTextureCoords[0]) continue;
+            const aiVector3D& q = m->mTextureCoords[0][face.mIndices[k]];
+            if (std::isfinite(q.x) && std::isfinite(q.y)) uv[k] = Eigen::Vector2f(q.x, q.y);
+        }
+        if (flip) std::swap(uv[1], uv[2]);
+        mesh.cornerUvs.push_back(uv);
+    }
+
+    /// The file's material `mi` in mesh.materials (read once): its base colour (glTF's factor,
+    /// else the diffuse colour), its base-colour texture, roughness and metalness. −1 for assimp's
+    /// stand-in for files without materials (STL, PLY, an OBJ without its MTL): no look of its own.
+    int materialOf(unsigned mi) {
+        if (!scene->mMaterials || mi >= scene->mNumMaterials || !scene->mMaterials[mi]) return -1;
+        if (materialIndex.size() != scene->mNumMaterials) materialIndex.assign(scene->mNumMaterials, -2);
+        int& id = materialIndex[mi];
+        if (id != -2) return id;
+        const aiMaterial* am = scene->mMaterials[mi];
+        SurfaceMaterial sm;
+        aiString name;
+        if (am->Get(AI_MATKEY_NAME, name) == AI_SUCCESS) sm.name = str(name);
+        aiColor4D c;
+        if (am->Get(AI_MATKEY_BASE_COLOR, c) == AI_SUCCESS || am->Get(AI_MATKEY_COLOR_DIFFUSE, c) == AI_SUCCESS) {
+            const Vec3 colour(c.r, c.g, c.b);
+            if (allFiniteNoTrap(colour)) sm.baseColour = colour.cwiseMax(0.0).cwiseMin(1.0);
+        }
+        aiString ref;
+        if (am->GetTexture(aiTextureType_BASE_COLOR, 0, &ref) == AI_SUCCESS ||
+            am->GetTexture(aiTextureType_DIFFUSE, 0, &ref) == AI_SUCCESS)
+            sm.baseColourMap = texture(str(ref), sm.name);
+        float f = 0;
+        if (am->Get(AI_MATKEY_ROUGHNESS_FACTOR, f) == AI_SUCCESS && std::isfinite(f))
+            sm.roughness = std::clamp(static_cast<Real>(f), 0.0, 1.0);
+        if (am->Get(AI_MATKEY_METALLIC_FACTOR, f) == AI_SUCCESS && std::isfinite(f))
+            sm.metallic = std::clamp(static_cast<Real>(f), 0.0, 1.0);
+        if (sm.name == AI_DEFAULT_MATERIAL_NAME && !sm.baseColourMap) return id = -1;
+        ++report.materials;
+        if (sm.baseColourMap) ++report.textures;
+        id = static_cast<int>(mesh.materials.size());
+        mesh.materials.push_back(std::move(sm));
+        return id;
+    }
+
+    /// The texture a material names: embedded in the file ("*0", or a name the file's own
+    /// textures carry), else a file beside the mesh (the reference as written, then its last
+    /// component alone: files exported elsewhere often carry a folder that is not there). Null,
+    /// with one warning, when it cannot be read.
+    std::shared_ptr<const TextureImage> texture(const std::string& ref, const std::string& material) {
+        if (ref.empty()) return nullptr;
+        auto cached = textures.find(ref);
+        if (cached != textures.end()) return cached->second;
+        std::shared_ptr<const TextureImage>& slot = textures[ref];
+        try {
+            if (const aiTexture* t = scene->GetEmbeddedTexture(ref.c_str())) {
+                slot = std::make_shared<const TextureImage>(embeddedTexture(*t, path + " (embedded texture " + ref + ")"));
+                return slot;
+            }
+            std::string written = ref;
+            std::replace(written.begin(), written.end(), '\\', '/');
+            const fs::path folder = fs::path(path).parent_path();
+            fs::path file = folder / written;
+            std::error_code ec;
+            if (!fs::is_regular_file(file, ec)) {
+                const fs::path alone = folder / fs::path(written).filename();
+                if (fs::is_regular_file(alone, ec)) file = alone;
+            }
+            slot = std::make_shared<const TextureImage>(readTexture(file));
+        } catch (const InputError& e) {
+            ++report.texturesMissing;
+            logWarning(path + ": material '" + material + "': texture '" + ref + "': " + e.what() +
+                       "; the material is drawn in its colour");
+        }
+        return slot;
+    }
+
+    /// An embedded texture: compressed bytes (PNG, JPEG, ...; mHeight 0) or raw BGRA texels.
+    static TextureImage embeddedTexture(const aiTexture& t, const std::string& source) {
+        if (!t.pcData) throw InputError(source, "", "no data");
+        if (t.mHeight == 0) return decodeTexture(reinterpret_cast<const unsigned char*>(t.pcData), t.mWidth, source);
+        if (t.mWidth > static_cast<unsigned>(kMaxTextureSide) || t.mHeight > static_cast<unsigned>(kMaxTextureSide))
+            throw InputError(source, "", "larger than " + std::to_string(kMaxTextureSide) + " pixels on a side");
+        TextureImage image;
+        image.width = static_cast<int>(t.mWidth);
+        image.height = static_cast<int>(t.mHeight);
+        image.source = source;
+        const std::size_t n = static_cast<std::size_t>(t.mWidth) * t.mHeight;
+        image.rgba.resize(4 * n);
+        for (std::size_t p = 0; p < n; ++p) {
+            const aiTexel& q = t.pcData[p];
+            image.rgba[4 * p] = q.r;
+            image.rgba[4 * p + 1] = q.g;
+            image.rgba[4 * p + 2] = q.b;
+            image.rgba[4 * p + 3] = q.a;
+        }
+        return image;
     }
 
     void walk(const aiNode* node, const Mat4& parent, bool selected, int depth) {
@@ -426,12 +538,14 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
 
     Assimp::DefaultLogger::kill();  // the null logger: assimp prints nothing
     Assimp::Importer importer;
-    // Positions are all dgv uses: drop the rest before post-processing so that vertices that
-    // differ only in normals or UVs are joined, and less memory is spent.
+    // Positions (and, with the materials, texture coordinates and embedded textures) are all
+    // dgv uses: drop the rest before post-processing so that vertices that differ only in
+    // normals are joined, and less memory is spent. UV seams are kept per corner (addCornerLook).
+    const int lookComponents = options.materials ? 0 : (aiComponent_TEXCOORDS | aiComponent_TEXTURES);
     importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
                                 aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
-                                    aiComponent_TEXCOORDS | aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
-                                    aiComponent_TEXTURES | aiComponent_LIGHTS | aiComponent_CAMERAS);
+                                    aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS | aiComponent_LIGHTS |
+                                    aiComponent_CAMERAS | lookComponents);
     // Read without post-processing, drop what dgv ignores (lights and cameras without nodes
     // would fail validation), then validate and triangulate.
     const unsigned flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
@@ -478,6 +592,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
         logInfo(p + ": " + line);
     }
     Collector c(scene, p, options.meshName);
+    c.look = options.materials;
     c.report.unitScale = unitScale;
     if (scene->mRootNode) {
         c.walk(scene->mRootNode, root, false, 0);
@@ -496,6 +611,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
     }
 
     TriangleMesh mesh = std::move(c.mesh);
+    if (mesh.materials.empty()) mesh.clearMaterials();  // nothing of its own: the object's colour
     weldByPosition(mesh);
     const std::size_t before = mesh.triangles.size();
     c.report.degenerateDropped = dropDegenerateTriangles(mesh);

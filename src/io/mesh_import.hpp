@@ -22,6 +22,11 @@ struct MeshImportOptions {
     /// Metres per file unit to apply instead of the file's own (a scene's `transform.units`); 0:
     /// the file's (FBX's UnitScaleFactor, else 1).
     double unitScale = 0;
+    /// Also read the file's look (TriangleMesh::materials, triangleMaterials, cornerUvs): each
+    /// material's base colour, roughness and metalness, and its base-colour texture decoded
+    /// (io/texture) from beside the file or from the file itself. A texture that cannot be found
+    /// or read is a warning naming it; the material keeps its colour. Off: positions only.
+    bool materials = false;
 };
 
 struct MeshImportReport {
@@ -30,6 +35,9 @@ struct MeshImportReport {
     std::size_t nonTriangleFaces = 0;  ///< points and lines ignored
     OrientReport orientation;          ///< parts turned around (orientOutward)
     double unitScale = 1;              ///< metres per file unit applied (FBX UnitScaleFactor / 100)
+    std::size_t materials = 0;         ///< materials read (options.materials)
+    std::size_t textures = 0;          ///< of them with a base-colour texture
+    std::size_t texturesMissing = 0;   ///< textures named that could not be read (each warned of)
 };
 
 /// Imports the file: scales it to metres by the file's unit (FBX's UnitScaleFactor, with one

@@ -76,6 +76,7 @@ TriangleMesh objectMesh(const ObjectDesc& desc, const std::string& sceneFile, in
         MeshImportOptions opts;
         opts.meshName = desc.meshName;
         opts.unitScale = desc.transform.units;
+        opts.materials = !desc.colorGiven;  // a scene's color overrides the file's look
         try {
             mesh = importMesh(desc.meshPath, opts);
         } catch (const InputError& e) {
@@ -118,8 +119,10 @@ BuiltObject buildObject(const SceneDesc& scene, int index, std::size_t memoryBud
     const ObjectDesc& desc = scene.objects[static_cast<std::size_t>(index)];
     BuiltObject obj;
     obj.name = desc.name;
-    obj.color = desc.color;
     obj.restMesh = objectMesh(desc, scene.path, index);
+    // Drawn in the file's materials where it has them; the colour is then theirs seen from afar
+    // (the highlight's contrast and the footprints take it).
+    obj.color = meanSurfaceColour(obj.restMesh, desc.color);
     obj.meshReport = analyseMesh(obj.restMesh);
     // A flat mesh (a single triangle, a plane) bounds no volume: voxelised as an open mesh it
     // becomes a sheet one voxel thick with no complete cell, whose dynamics went non-finite.

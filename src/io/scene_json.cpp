@@ -532,6 +532,7 @@ ObjectDesc readObject(ObjectReader& o, int i, const fs::path& sceneDir) {
             t.fail("units", "applies to a mesh file (a primitive is in metres; use scale)");
     });
     readVoxel(o, d.voxel);
+    d.colorGiven = o.has("color");
     d.color = o.color("color", d.color);
     d.deformable = o.boolean("deformable", true);
     o.object("material", [&](ObjectReader& m) { readMaterial(m, d.material); });

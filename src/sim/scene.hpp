@@ -104,6 +104,9 @@ struct ObjectDesc {
     TransformDesc transform;
     VoxeliseSettings voxel;
     Vec3 color = Vec3(0.8, 0.8, 0.8);  ///< linear RGB (the file gives sRGB)
+    /// `color` was written: it overrides the mesh file's materials and textures (without it a
+    /// mesh file's own look is drawn, where it has one; docs/rendering.md, "Materials").
+    bool colorGiven = false;
     bool deformable = true;
     MaterialDesc material;
     Vec3 velocity = Vec3::Zero();     ///< initial velocity of the centre, m/s

@@ -36,6 +36,12 @@ FrameView::FrameView(const SceneDesc& scene, std::vector<ViewObject> objects, st
         mFrame.meshes[i].triangles = mObjects[i].restMesh->triangles;
         mFrame.meshes[i].colour = mObjects[i].colour;
         mFrame.meshes[i].creasePositions = mObjects[i].restMesh->vertices;  // same split for any --frames
+        const TriangleMesh& rest = *mObjects[i].restMesh;
+        if (rest.hasMaterials()) {  // the file's look, carried by the rest triangles as they deform
+            mFrame.meshes[i].triangleMaterials = rest.triangleMaterials;
+            mFrame.meshes[i].cornerUvs = rest.cornerUvs;
+            mFrame.meshes[i].materials = rest.materials;
+        }
     }
     // Static colliders after the objects, framed with them.
     mFirstCollider = mFrame.meshes.size();
@@ -147,6 +153,10 @@ const FrameScene& FrameView::update(const std::vector<ViewBody>& bodies, const C
         if (body && bodies[i].surface != object.restMesh && mesh.triangles != bodies[i].surface->triangles) {
             mesh.triangles = bodies[i].surface->triangles;
             mesh.creasePositions = bodies[i].surface->vertices;
+            // A surface taken anew from the volume (goo's re-parametrisation) has no texture
+            // coordinates: from here on drawn in the object's colour.
+            mesh.triangleMaterials.clear();
+            mesh.cornerUvs.clear();
         }
         deformVertices(body ? *bodies[i].embedding : *object.embedding, body ? body->state() : *object.state,
                        mesh.positions);

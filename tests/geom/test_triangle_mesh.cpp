@@ -149,3 +149,38 @@ TEST_CASE("triangle_mesh: vertices at the same position share the lowest index a
     CHECK(samePositionRepresentatives(v) == std::vector<int>{0, 1, 0, 1, 4, 0, 1});
     CHECK(samePositionRepresentatives({}).empty());
 }
+
+TEST_CASE("triangle_mesh: the look stays with its triangles when they are dropped or turned", "[geom][materials]") {
+    // Two tetrahedra: the first outward, the second inside out, far apart; plus one degenerate
+    // triangle in between. Each triangle's material is its index and its corners' coordinates
+    // name the corner's vertex, so any misalignment shows.
+    TriangleMesh m;
+    m.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1),
+                  Vec3(5, 0, 0), Vec3(6, 0, 0), Vec3(5, 1, 0), Vec3(5, 0, 1)};
+    m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {1, 1, 2},
+                   {4, 5, 6}, {4, 7, 5}, {4, 6, 7}, {5, 7, 6}};
+    m.materials.resize(m.triangles.size());
+    auto uvOf = [](int v) { return Eigen::Vector2f(static_cast<float>(v), static_cast<float>(10 * v)); };
+    for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+        m.triangleMaterials.push_back(static_cast<int>(f));
+        m.cornerUvs.push_back({uvOf(m.triangles[f][0]), uvOf(m.triangles[f][1]), uvOf(m.triangles[f][2])});
+    }
+    auto aligned = [&]() {
+        if (!m.hasMaterials()) return false;
+        for (std::size_t f = 0; f < m.triangles.size(); ++f)
+            for (std::size_t k = 0; k < 3; ++k)
+                if (m.cornerUvs[f][k] != uvOf(m.triangles[f][k])) return false;
+        return true;
+    };
+    CHECK(dropDegenerateTriangles(m) == 1);
+    CHECK(m.triangleMaterials == std::vector<int>{0, 1, 2, 3, 5, 6, 7, 8});
+    CHECK(aligned());
+    const OrientReport r = orientOutward(m);
+    CHECK(r.flippedParts == 1);
+    CHECK(meshSignedVolume(m) == Approx(2.0 / 6));
+    CHECK(aligned());
+    transformMesh(m, Mat3(Vec3(-1, 1, 1).asDiagonal()), Vec3::Zero());  // a mirror turns every triangle
+    CHECK(meshSignedVolume(m) == Approx(2.0 / 6));
+    CHECK(aligned());
+    CHECK(m.triangleMaterials == std::vector<int>{0, 1, 2, 3, 5, 6, 7, 8});
+}

@@ -1,0 +1,27 @@
+#pragma once
+/// @file texture.hpp
+/// @brief The images a mesh file's materials refer to, decoded through stb_image (PNG, JPEG,
+/// TGA, BMP, PSD, GIF's first frame, HDR tone-clamped): from a file beside the mesh or from
+/// bytes the mesh file embeds (GLB, FBX).
+
+#include "base/material.hpp"
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+namespace dgv {
+
+/// The largest side accepted (the renderer's texture limit).
+constexpr int kMaxTextureSide = 16384;
+
+/// Decodes an image held in memory. `source` names it in the result and in errors.
+/// InputError(source, "", why) when it is not an image stb_image reads, or larger than
+/// kMaxTextureSide on a side.
+TextureImage decodeTexture(const unsigned char* bytes, std::size_t size, const std::string& source);
+
+/// Reads and decodes a file. InputError naming the file when it is missing, unreadable or not
+/// an image.
+TextureImage readTexture(const std::filesystem::path& path);
+
+}  // namespace dgv
