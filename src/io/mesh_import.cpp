@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/DefaultLogger.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
@@ -232,6 +233,20 @@ void checkPlyHeader(const fs::path& path) {
     }
 }
 
+/// assimp's file system, noting every file it opens (the mesh's side files: MTL, buffers, ...).
+class RecordingIOSystem : public Assimp::DefaultIOSystem {
+public:
+    explicit RecordingIOSystem(std::vector<std::string>& files) : mFiles(files) {}
+    Assimp::IOStream* Open(const char* file, const char* mode) override {
+        Assimp::IOStream* stream = DefaultIOSystem::Open(file, mode);
+        if (stream && file) mFiles.push_back(file);
+        return stream;
+    }
+
+private:
+    std::vector<std::string>& mFiles;
+};
+
 struct Collector {
     const aiScene* scene = nullptr;
     const std::string& path;
@@ -240,6 +255,7 @@ struct Collector {
     MeshImportReport report;
     std::size_t meshesSelected = 0;  ///< with or without triangles
     bool look = false;               ///< MeshImportOptions::materials
+    bool decode = true;              ///< MeshImportOptions::decodeTextures
     /// The file's materials as read so far: its index in mesh.materials, −1 none, −2 not read yet.
     std::vector<int> materialIndex;
     /// Textures decoded, by the reference the file makes (one decode for materials sharing one).
@@ -359,7 +375,8 @@ struct Collector {
         std::shared_ptr<const TextureImage>& slot = textures[ref];
         try {
             if (const aiTexture* t = scene->GetEmbeddedTexture(ref.c_str())) {
-                slot = std::make_shared<const TextureImage>(embeddedTexture(*t, path + " (embedded texture " + ref + ")"));
+                if (decode)
+                    slot = std::make_shared<const TextureImage>(embeddedTexture(*t, path + " (embedded texture " + ref + ")"));
                 return slot;
             }
             std::string written = ref;
@@ -371,7 +388,12 @@ struct Collector {
                 const fs::path alone = folder / fs::path(written).filename();
                 if (fs::is_regular_file(alone, ec)) file = alone;
             }
+            if (!decode) {
+                if (fs::is_regular_file(file, ec)) report.filesRead.push_back(file.string());
+                return slot;
+            }
             slot = std::make_shared<const TextureImage>(readTexture(file));
+            report.filesRead.push_back(file.string());
         } catch (const InputError& e) {
             ++report.texturesMissing;
             logWarning(path + ": material '" + material + "': texture '" + ref + "': " + e.what() +
@@ -538,6 +560,8 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
 
     Assimp::DefaultLogger::kill();  // the null logger: assimp prints nothing
     Assimp::Importer importer;
+    std::vector<std::string> opened{p};
+    importer.SetIOHandler(new RecordingIOSystem(opened));  // the importer owns it
     // Positions (and, with the materials, texture coordinates and embedded textures) are all
     // dgv uses: drop the rest before post-processing so that vertices that differ only in
     // normals are joined, and less memory is spent. UV seams are kept per corner (addCornerLook).
@@ -593,6 +617,7 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
     }
     Collector c(scene, p, options.meshName);
     c.look = options.materials;
+    c.decode = options.decodeTextures;
     c.report.unitScale = unitScale;
     if (scene->mRootNode) {
         c.walk(scene->mRootNode, root, false, 0);
@@ -633,7 +658,14 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
             logWarning(p + ": " + line);
         }
     }
-    if (report) *report = c.report;
+    if (report) {
+        *report = c.report;
+        report->filesRead.insert(report->filesRead.end(), opened.begin(), opened.end());
+        for (std::string& f : report->filesRead) f = fs::absolute(f).lexically_normal().string();
+        std::sort(report->filesRead.begin(), report->filesRead.end());
+        report->filesRead.erase(std::unique(report->filesRead.begin(), report->filesRead.end()),
+                                report->filesRead.end());
+    }
     return mesh;
 }
 

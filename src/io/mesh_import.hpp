@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace dgv {
 
@@ -27,6 +28,9 @@ struct MeshImportOptions {
     /// (io/texture) from beside the file or from the file itself. A texture that cannot be found
     /// or read is a warning naming it; the material keeps its colour. Off: positions only.
     bool materials = false;
+    /// With `materials`: decode the textures (false: find them only, quietly, for
+    /// MeshImportReport::filesRead; the materials then have no maps).
+    bool decodeTextures = true;
 };
 
 struct MeshImportReport {
@@ -38,6 +42,10 @@ struct MeshImportReport {
     std::size_t materials = 0;         ///< materials read (options.materials)
     std::size_t textures = 0;          ///< of them with a base-colour texture
     std::size_t texturesMissing = 0;   ///< textures named that could not be read (each warned of)
+    /// Every file the import read, absolute, sorted, once each: the mesh file, the files assimp
+    /// opened beside it (an OBJ's MTL, a glTF's buffers) and the textures found. What a frame
+    /// drawn from the mesh is a function of (io/state_file, sceneFrameKey).
+    std::vector<std::string> filesRead;
 };
 
 /// Imports the file: scales it to metres by the file's unit (FBX's UnitScaleFactor, with one

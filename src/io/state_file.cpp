@@ -6,6 +6,7 @@
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/checksum.hpp"
+#include "io/mesh_import.hpp"
 #include "io/stats_csv.hpp"
 
 #include <nlohmann/json.hpp>
@@ -398,9 +399,33 @@ std::string sceneFrameKey(const SceneDesc& scene) {
         std::ifstream m(path, std::ios::binary);
         f.text(std::string((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>()));
     };
-    for (const ObjectDesc& o : scene.objects) file(o.meshPath);
+    // A mesh with what it refers to: an OBJ's MTL, a glTF's buffers, and the textures an object
+    // drawn in the file's look shows (a changed texture is a changed frame).
+    auto mesh = [&](const std::string& path, const std::string& name, double units, bool look) {
+        if (path.empty()) return;
+        MeshImportOptions o;
+        o.meshName = name;
+        o.unitScale = units;
+        o.materials = look;
+        o.decodeTextures = false;
+        o.orientOutward = false;
+        o.logUnitScale = false;
+        MeshImportReport r;
+        try {
+            importMesh(path, o, &r);
+        } catch (const InputError&) {
+            r.filesRead = {path};  // the scene's reader has accepted it; keyed by its bytes alone
+        }
+        // each file by its name beside the mesh (a project moved elsewhere keeps its frames)
+        const fs::path folder = fs::absolute(path).lexically_normal().parent_path();
+        for (const std::string& p : r.filesRead) {
+            f.text(fs::path(p).lexically_relative(folder).string());
+            file(p);
+        }
+    };
+    for (const ObjectDesc& o : scene.objects) mesh(o.meshPath, o.meshName, o.transform.units, !o.colorGiven);
     for (const ColliderDesc& c : scene.colliders) {
-        file(c.meshPath);
+        mesh(c.meshPath, "", c.transform.units, false);
         file(c.levelSetPath);
     }
     char hex[17];

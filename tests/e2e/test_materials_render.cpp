@@ -106,6 +106,38 @@ TEST_CASE("e2e: a mesh file's materials and texture are drawn, at rest and as th
     }
 }
 
+TEST_CASE("e2e: --resume re-renders the frames of a changed texture or MTL, and keeps them otherwise",
+          "[e2e][materials][resume]") {
+    test::TempDir dir("e2e_materials_resume");
+    writeFiles(dir.path(), "rb.png");
+    std::ofstream(dir.path() / "s.json") << scene("", "");
+    REQUIRE(runDgvIn(dir.path(), "-q render s.json --frames 1-2 --out out").exitCode == 0);
+    const fs::path frame = dir.path() / "out" / "tex.0001.png";
+    const std::string before = readAll(frame);
+    auto resume = [&]() {
+        const Run r = runDgvIn(dir.path(), "render s.json --frames 1-2 --out out --resume");
+        INFO("stderr: " << r.err);
+        CHECK(r.exitCode == 0);
+        return r.err;
+    };
+    CHECK_THAT(resume(), Catch::Contains("kept 2 complete frames, rendered 0"));
+    SECTION("the texture: its halves swapped") {
+        Image img(16, 16);
+        for (int y = 0; y < 16; ++y)
+            for (int x = 0; x < 16; ++x) {
+                img.pixel(x, y)[0] = x < 8 ? 0 : 65535;
+                img.pixel(x, y)[2] = x < 8 ? 65535 : 0;
+                img.pixel(x, y)[3] = 65535;
+            }
+        writePng(dir.path() / "rb.png", img);
+    }
+    SECTION("the MTL: another green") {
+        std::ofstream(dir.path() / "box.mtl") << "newmtl front\nKd 1 1 1\nmap_Kd rb.png\nnewmtl side\nKd 0.02 0.5 0.02\n";
+    }
+    CHECK_THAT(resume(), Catch::Contains("kept 0 complete frames, rendered 2 (2 of them were on disk"));
+    CHECK(readAll(frame) != before);
+}
+
 TEST_CASE("e2e: a texture that is not there is one warning naming it, and the shot renders", "[e2e][materials]") {
     test::TempDir dir("e2e_materials_missing");
     writeFiles(dir.path(), "textures/gone.png");

@@ -11,6 +11,7 @@
 #include "io/texture.hpp"
 #include "support/helpers.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -96,6 +97,22 @@ TEST_CASE("materials import: an OBJ's MTL colours, its texture and the corners' 
     const Vec3 mean = meanSurfaceColour(m, Vec3::Zero());
     CHECK(mean.isApprox(0.5 * Vec3(1, 0, 0) + 0.5 * Vec3(0.5 * 0.5, 0, 0.5 * 1), 1e-12));
 
+    SECTION("the files it read: the mesh, its MTL and the texture") {
+        const std::vector<std::string> files = {obj.string(), (dir.path() / "square.mtl").string(),
+                                                (dir.path() / "rb.png").string()};
+        std::vector<std::string> sorted = files;
+        std::sort(sorted.begin(), sorted.end());
+        CHECK(report.filesRead == sorted);
+        // found without decoding (the frames' key): the same files, no maps
+        test::FpTrapsOff guard;
+        MeshImportOptions o;
+        o.materials = true;
+        o.decodeTextures = false;
+        MeshImportReport quiet;
+        const TriangleMesh found = importMesh(obj, o, &quiet);
+        CHECK(quiet.filesRead == sorted);
+        for (const SurfaceMaterial& mat : found.materials) CHECK(!mat.baseColourMap);
+    }
     SECTION("positions only, as colliders and pins import") {
         const TriangleMesh plain = importLook(obj, nullptr, false);
         CHECK(!plain.hasMaterials());
