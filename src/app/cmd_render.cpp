@@ -202,6 +202,79 @@ void writeContactSheetOf(const SceneDesc& scene, const RenderSettings& rs, const
     logInfo("wrote the contact sheet " + sheetPath.string());
 }
 
+/// On-screen travel, in output pixels, that one more render of a blurred frame covers.
+constexpr Real kBlurPixelsPerSample = 1.5;
+
+/// The renders a blurred frame takes (render.motion_blur): one where no surface vertex moves half
+/// a pixel on screen while the shutter is open (the frame is then drawn as without blur, byte for
+/// byte: a shot's frames at rest cost what they did), else one per kBlurPixelsPerSample pixels of
+/// the largest travel, at least 2 and at most render.motion_blur.samples.
+int blurSamples(const SceneDesc& scene, const DynamicsRun& dynamics, const std::vector<BuiltObject>& objects,
+                int frame, const Box3& bounds, const RenderSettings& rs) {
+    const Real aspect = Real(rs.width) / Real(rs.height);
+    const Real opens = frame - scene.render.motionBlurShutter / 360;
+    const Camera c0 = frameCamera(scene, bounds, opens, aspect), c1 = frameCamera(scene, bounds, frame, aspect);
+    const Mat4 m0 = c0.clipFromView(aspect, 0.1, 10) * c0.viewFromWorld();
+    const Mat4 m1 = c1.clipFromView(aspect, 0.1, 10) * c1.viewFromWorld();
+    const bool cameraMoves = !(m0 - m1).isZero(0);
+    auto pixel = [&](const Mat4& m, const Vec3& x, Vec2& out) {
+        const Vec4 c = m * Vec4(x.x(), x.y(), x.z(), 1);
+        if (!(c.w() > 0)) return false;  // behind the camera
+        out = Vec2((c.x() / c.w() + 1) / 2 * rs.width, (c.y() / c.w() + 1) / 2 * rs.height);
+        return true;
+    };
+    Real travel = 0;
+    std::vector<Vec3> before, after;
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+        const bool moves = dynamics.surfaceAt(i, frame, opens, before) && dynamics.surfaceAt(i, frame, frame, after);
+        if (!moves && !cameraMoves) continue;
+        if (!moves) {
+            if (const DeformableBody* body = dynamics.body(i))
+                deformVertices(dynamics.embedding(i), body->state(), after);
+            else
+                after = objects[i].restMesh.vertices;
+            before = after;
+        }
+        Vec2 a, b;
+        for (std::size_t v = 0; v < after.size(); ++v)
+            if (pixel(m0, before[v], a) && pixel(m1, after[v], b)) travel = std::max(travel, (b - a).norm());
+    }
+    if (!(travel >= 0.5)) return 1;
+    const Real n = std::ceil(travel / kBlurPixelsPerSample) + 1;
+    return static_cast<int>(std::clamp(n, Real(2), Real(scene.render.motionBlurSamples)));
+}
+
+/// A frame under motion blur (render.motion_blur; docs/rendering.md, "Motion blur"): the mean,
+/// in linear light, of n renders (blurSamples) at times spread evenly over the shutter, from its opening to the frame's time: each moving body where the simulation's own
+/// substeps had it then (DynamicsRun::surfaceAt), the camera on its path. The contact matte is
+/// averaged as the colour is, the depth is the nearest over the samples.
+LinearImage blurredFrame(Renderer& renderer, FrameView& view, const SceneDesc& scene, const DynamicsRun& dynamics,
+                         std::vector<ViewBody> bodies, int frame, int n, const Box3& bounds, Real aspect) {
+    const Real shutter = scene.render.motionBlurShutter / 360;
+    std::vector<std::vector<Vec3>> surfaces(bodies.size());
+    LinearImage sum, sample;
+    for (int j = 0; j < n; ++j) {
+        const Real t = frame - shutter * Real(n - 1 - j) / Real(n - 1);
+        for (std::size_t i = 0; i < bodies.size(); ++i)
+            bodies[i].vertices = bodies[i].body && dynamics.surfaceAt(i, frame, t, surfaces[i]) ? &surfaces[i] : nullptr;
+        const Camera camera = frameCamera(scene, bounds, t, aspect);
+        renderer.render(view.update(bodies, camera), camera, &sample);
+        if (j == 0) {
+            sum = sample;
+            continue;
+        }
+        for (std::size_t k = 0; k < sum.rgba.size(); ++k) sum.rgba[k] += sample.rgba[k];
+        for (std::size_t k = 0; k < sum.contact.size(); ++k) {
+            sum.contact[k] += sample.contact[k];
+            sum.depth[k] = std::min(sum.depth[k], sample.depth[k]);
+        }
+    }
+    const float scale = 1.0f / static_cast<float>(n);
+    for (float& v : sum.rgba) v *= scale;
+    for (float& v : sum.contact) v *= scale;
+    return sum;
+}
+
 }  // namespace
 
 int runRender(const RenderOptions& options) {
@@ -216,6 +289,10 @@ int runRender(const RenderOptions& options) {
             logInfo("--contact-sheet: '" + scene.name +
                     "' is a curve scene (the GLN figures), which has no contact sheet; "
                     "rendering its frames without one");
+        if (scene.render.motionBlur)
+            logInfo("render.motion_blur: '" + scene.name +
+                    "' is a curve scene (the GLN figures), whose frames are drawn without it");
+        scene.render.motionBlur = false;
         return renderCurveScene(scene, renderSettingsOf(scene.render, backend), first, last);
     }
 
@@ -228,6 +305,8 @@ int runRender(const RenderOptions& options) {
     DynamicsRun dynamics(scene, objects, scene.output.vdb);
     dynamics.setFirstWrittenFrame(first);
     dynamics.setReadOnly(options.farmTask);
+    const bool blur = scene.render.motionBlur;
+    if (blur) dynamics.recordMotion(scene.render.motionBlurShutter / 360);
 
     const RenderSettings rs = renderSettingsOf(scene.render, backend);
     Renderer renderer(rs);
@@ -287,7 +366,8 @@ int runRender(const RenderOptions& options) {
         if (options.resume && fs::exists(onDisk)) ++replaced;
         // Frames were skipped (--frames A-B, --resume): restart from the latest state checkpoint
         // up to this frame when there is one; otherwise (and from there) simulate frame by frame.
-        if (frame > dynamics.done() + 1) dynamics.restoreCheckpoint(frame);
+        // Under motion blur the frame itself is simulated (its substeps are the blur's samples).
+        if (frame > dynamics.done() + 1) dynamics.restoreCheckpoint(blur ? frame - 1 : frame);
         dynamics.advanceTo(frame);
         const Camera camera = frameCamera(scene, bounds, frame, aspect);
         for (std::size_t i = 0; i < objects.size(); ++i) {
@@ -296,9 +376,15 @@ int runRender(const RenderOptions& options) {
                                             &dynamics.contactHistory(i).age()}
                                  : ViewBody{};
         }
-        const FrameScene& frameScene = view.update(viewBodies, camera);
         LinearImage linear;
-        Image image = renderer.render(frameScene, camera, exr ? &linear : nullptr);
+        Image image;
+        const int samples = blur ? blurSamples(scene, dynamics, objects, frame, bounds, rs) : 1;
+        if (samples > 1) {
+            linear = blurredFrame(renderer, view, scene, dynamics, viewBodies, frame, samples, bounds, aspect);
+            image = encodedImageOf(linear);
+        } else {
+            image = renderer.render(view.update(viewBodies, camera), camera, exr ? &linear : nullptr);
+        }
         const std::string& path = onDisk;
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
                     {"Source", glName},

@@ -85,7 +85,8 @@ RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend) {
     rs.transparentBackground = desc.transparent;
     rs.creaseDegrees = desc.creaseDegrees;
     rs.shadowSoftness = desc.shadowSoftness;
-    rs.linearPlanes = desc.format == RenderDesc::Format::Exr;
+    // EXR frames and motion blur (averaged in linear light) need the linear planes.
+    rs.linearPlanes = desc.format == RenderDesc::Format::Exr || desc.motionBlur;
     rs.lights = desc.lights;
     rs.backend = backend;
     return rs;

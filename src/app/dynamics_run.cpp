@@ -86,6 +86,41 @@ const MeshEmbedding& DynamicsRun::embedding(std::size_t i) const {
     return e ? *e : mObjects[i].embedding;
 }
 
+void DynamicsRun::recordMotion(Real shutterFrames) {
+    mShutterFrames = shutterFrames;
+    mSim->setSubstepObserver([this](int frame, int k, int sub) {
+        if (k == 0) {  // a frame (or a frame simulated again) starts
+            mMotion.clear();
+            mMotionFrame = frame;
+        }
+        // Kept when the shutter is open at the next substep's end (this one brackets its opening),
+        // and always the frame's last.
+        const Real opens = frame - mShutterFrames;
+        if (k < sub && (frame - 1) + Real(k + 1) / sub <= opens) return;
+        MotionSample m;
+        m.time = (frame - 1) + Real(k) / sub;
+        m.surfaces.resize(mObjects.size());
+        for (std::size_t i = 0; i < mObjects.size(); ++i)
+            if (const DeformableBody* b = body(i)) deformVertices(embedding(i), b->state(), m.surfaces[i]);
+        mMotion.push_back(std::move(m));
+    });
+}
+
+bool DynamicsRun::surfaceAt(std::size_t i, int frame, Real t, std::vector<Vec3>& vertices) const {
+    if (frame != mMotionFrame || mMotion.empty() || mMotion.back().time < frame) return false;
+    if (i >= mMotion[0].surfaces.size() || mMotion[0].surfaces[i].empty()) return false;
+    std::size_t b = 0;
+    while (b + 1 < mMotion.size() && mMotion[b].time < t) ++b;
+    const std::size_t a = b > 0 ? b - 1 : 0;
+    const std::vector<Vec3>& va = mMotion[a].surfaces[i];
+    const std::vector<Vec3>& vb = mMotion[b].surfaces[i];
+    const Real span = mMotion[b].time - mMotion[a].time;
+    const Real w = span > 0 ? std::clamp((t - mMotion[a].time) / span, Real(0), Real(1)) : Real(1);
+    vertices.resize(vb.size());
+    for (std::size_t v = 0; v < vb.size(); ++v) vertices[v] = (1 - w) * va[v] + w * vb[v];
+    return true;
+}
+
 void DynamicsRun::record(const FrameStats& s) {
     mLast = s;
     mDone = s.frame;

@@ -63,6 +63,15 @@ public:
     /// Returns its path, or "" when the run writes none (another format, a farm render task).
     std::string finishCaches();
     const FrameStats& lastStats() const { return mLast; }
+    /// Motion blur (render.motion_blur): from now on, each simulated frame keeps every moving
+    /// object's deformed surface at its start and after each substep that the shutter (open over
+    /// the last `shutterFrames` of the frame) or its neighbour needs.
+    void recordMotion(Real shutterFrames);
+    /// Object i's surface at frame time t ∈ [frame − 1, frame] of the frame just simulated, linear
+    /// between the substeps either side (held before the first one kept). False, and nothing
+    /// written, where there is none: the object does not move, or `frame` was restored from a
+    /// checkpoint or is the first (draw the surface as it is).
+    bool surfaceAt(std::size_t i, int frame, Real t, std::vector<Vec3>& vertices) const;
     /// Object i's per-point history of the contact set R (frames since each point was last in
     /// R), updated on every simulated frame; empty for objects that do not move.
     const ContactHistory& contactHistory(std::size_t i) const { return mContactHistory[i]; }
@@ -89,6 +98,14 @@ private:
     std::string mFrameKey;        ///< the VDB and mesh cache files' key (io/state_file.hpp, sceneFrameKey)
     std::vector<ContactHistory> mContactHistory;  ///< per object
     bool mMeshWritten = false;                    ///< a mesh frame was written by this run
+    /// recordMotion: the surfaces of the frame mMotionFrame at frame times, ascending.
+    struct MotionSample {
+        Real time = 0;
+        std::vector<std::vector<Vec3>> surfaces;  ///< per object; empty for one that does not move
+    };
+    Real mShutterFrames = 0;
+    int mMotionFrame = -1;
+    std::vector<MotionSample> mMotion;
 };
 
 }  // namespace dgv::app

@@ -794,6 +794,23 @@ void readOverlays(ObjectReader& o, RenderDesc& d) {
     d.overlayLineWidth = o.number("line_width", d.overlayLineWidth, 1, 64);
 }
 
+/// render.motion_blur: true, false or {"shutter", "samples"}.
+void readMotionBlur(ObjectReader& g, RenderDesc& d) {
+    if (!g.has("motion_blur")) return;
+    const Json* v = g.get("motion_blur");
+    if (v->is_boolean()) {
+        d.motionBlur = v->get<bool>();
+    } else if (!v->is_object()) {
+        g.fail("motion_blur", "expected true, false or an object {\"shutter\", \"samples\"}, got " + describe(*v));
+    } else {
+        g.object("motion_blur", [&](ObjectReader& m) {
+            d.motionBlur = true;
+            d.motionBlurShutter = m.number("shutter", d.motionBlurShutter, 0, 360, true);
+            d.motionBlurSamples = m.integer("samples", d.motionBlurSamples, 2, 64);
+        });
+    }
+}
+
 /// render.
 void readRender(ObjectReader& g, RenderDesc& d) {
     d.width = g.integer("width", d.width, 16, 16384);
@@ -811,6 +828,7 @@ void readRender(ObjectReader& g, RenderDesc& d) {
     readLights(g, d.lights);
     d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);
     d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);
+    readMotionBlur(g, d);
     if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
     g.object("contact", [&](ObjectReader& c) { readContactHighlight(c, d); });
     readPinDisplay(g, d);

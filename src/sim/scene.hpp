@@ -239,6 +239,12 @@ struct RenderDesc {
     std::vector<Light> lights;  ///< render.lights; empty: the studio rig attached to the camera
     Real shadowSoftness = 3;   ///< the key light's angular radius, degrees (0: hard shadows)
     Real colliderOpacity = 1;  ///< colliders drawn see-through below 1 (an x-ray view of the contact behind them)
+    /// render.motion_blur: each frame the average of `motionBlurSamples` renders spread over the
+    /// shutter, which closes at the frame's time and stays open `motionBlurShutter` degrees of the
+    /// frame (180: half of it). The bodies at the simulation's own substeps, the camera on its path.
+    bool motionBlur = false;
+    Real motionBlurShutter = 180;  ///< degrees, (0, 360]
+    int motionBlurSamples = 8;     ///< renders a frame, 2..64
     /// Contact highlighting (render.contact): the contact set R as a colour ramp on the surface.
     ContactHighlightMode contactMode = ContactHighlightMode::Off;
     Real contactDepthMax = 0;                  ///< depth at which the ramp reaches `high`; 0: the object's voxel size

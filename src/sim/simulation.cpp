@@ -846,6 +846,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
     s.substeps = sub;
     const Real dt = 1 / (mScene.fps * sub);
     double seconds = 0;
+    if (mSubstepObserver) mSubstepObserver(frame, 0, sub);
     for (int k = 0; k < sub; ++k) {
         const Real fieldFrame = (frame - 1) + Real(k) / sub;
         const auto t0 = std::chrono::steady_clock::now();
@@ -894,6 +895,7 @@ FrameStats Simulation::simulateFrame(int frame, int sub) {
         }
         if (mObjectContact) keepPairMomentum(colliders, staticContact);
         seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (mSubstepObserver) mSubstepObserver(frame, k + 1, sub);
     }
     // Penetration between bodies, once both have moved: at the end of the frame (each body's
     // step leaves it out: its share of the push leaves the rest to the other body).

@@ -94,6 +94,11 @@ public:
     /// fails (the lattice folds, the affine part inverts, a position becomes non-finite, the
     /// surface flips or tears); the state is then the frame's start.
     FrameStats advanceTo(int frame);
+    /// Called at a simulated frame's start (substep 0) and after each of its substeps k (1 ..
+    /// substeps), with the bodies' states as the step left them; a frame simulated again starts
+    /// again at 0. What motion blur samples between frames (app/dynamics_run).
+    using SubstepObserver = std::function<void(int frame, int substep, int substeps)>;
+    void setSubstepObserver(SubstepObserver observer) { mSubstepObserver = std::move(observer); }
     /// How far past max_substeps a failed frame is retried.
     static constexpr int kRetrySubstepFactor = 2;
     /// The surface object i renders: its rest mesh and embedding (kept by reference: must
@@ -242,6 +247,7 @@ private:
     bool mObjectContact = false;  ///< collision.objects and at least two bodies
     const SceneDesc& mScene;
     int mMostSubsteps = 1;  ///< the most substeps a frame takes (maxSubsteps())
+    SubstepObserver mSubstepObserver;
     ForceField mField;
     std::vector<Collider> mColliders;
     std::vector<std::unique_ptr<DeformableBody>> mBodies;  ///< per object (null: static)

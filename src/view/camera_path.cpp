@@ -28,7 +28,7 @@ Camera keyframedCamera(const CameraDesc& c, Real frame, Real aspect) {
 
 }  // namespace
 
-Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real aspect) {
+Camera frameCamera(const SceneDesc& scene, const Box3& bounds, Real frame, Real aspect) {
     const CameraDesc& c = scene.camera;
     if (c.type == CameraType::Keyframed) return keyframedCamera(c, frame, aspect);
     if (c.type == CameraType::LookAt) {

@@ -9,8 +9,9 @@
 
 namespace dgv {
 
-/// The camera of `scene` at `frame` for an image of the given aspect (width / height); bounds:
-/// the shapes' bounds at rest, which a turntable frames.
-Camera frameCamera(const SceneDesc& scene, const Box3& bounds, int frame, Real aspect);
+/// The camera of `scene` at `frame` (a fraction between frames: a motion blur sample) for an
+/// image of the given aspect (width / height); bounds: the shapes' bounds at rest, which a
+/// turntable frames.
+Camera frameCamera(const SceneDesc& scene, const Box3& bounds, Real frame, Real aspect);
 
 }  // namespace dgv

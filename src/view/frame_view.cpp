@@ -158,8 +158,11 @@ const FrameScene& FrameView::update(const std::vector<ViewBody>& bodies, const C
             mesh.triangleMaterials.clear();
             mesh.cornerUvs.clear();
         }
-        deformVertices(body ? *bodies[i].embedding : *object.embedding, body ? body->state() : *object.state,
-                       mesh.positions);
+        if (body && bodies[i].vertices && bodies[i].vertices->size() == bodies[i].embedding->size())
+            mesh.positions = *bodies[i].vertices;
+        else
+            deformVertices(body ? *bodies[i].embedding : *object.embedding, body ? body->state() : *object.state,
+                           mesh.positions);
         if (rd.contactMode != ContactHighlightMode::Off && body) {
             std::vector<Real> pointValue =
                 contactPointScalar(rd.contactMode, body->contact(), body->contactDepth(), *bodies[i].contactAge,

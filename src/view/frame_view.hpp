@@ -40,6 +40,9 @@ struct ViewBody {
     const TriangleMesh* surface = nullptr;         ///< its surface on the body's lattice now (goo remaps it)
     const MeshEmbedding* embedding = nullptr;      ///< ... and its embedding there
     const std::vector<int>* contactAge = nullptr;  ///< ContactHistory::age of its points
+    /// The surface's deformed vertices to draw (a motion blur sample between substeps); null:
+    /// from the body's state now.
+    const std::vector<Vec3>* vertices = nullptr;
 };
 
 class FrameView {

@@ -422,3 +422,31 @@ TEST_CASE("scene_json: render.lights reads a rig, the first directional light ca
     CHECK_THAT(lights("[]"), Catch::Contains("at least one light"));
     CHECK_THAT(lights(R"([{"direction": [0, 1, 0], "attach": "camra"}])"), Catch::Contains("render.lights[0].attach"));
 }
+
+TEST_CASE("scene_json: render.motion_blur reads true, false or a shutter and samples, and refuses the rest",
+          "[io][scene][motion_blur]") {
+    auto blur = [](const std::string& value) {
+        return parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"motion_blur": )" + value + "}}",
+                          "d.json")
+            .render;
+    };
+    const RenderDesc off = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}]})", "d.json").render;
+    CHECK_FALSE(off.motionBlur);
+    CHECK(blur("true").motionBlur);
+    CHECK(blur("true").motionBlurShutter == 180);
+    CHECK(blur("true").motionBlurSamples == 8);
+    CHECK_FALSE(blur("false").motionBlur);
+    const RenderDesc set = blur(R"({"shutter": 90, "samples": 16})");
+    CHECK(set.motionBlur);
+    CHECK(set.motionBlurShutter == 90);
+    CHECK(set.motionBlurSamples == 16);
+    auto error = [](const std::string& value) {
+        return errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"motion_blur": )" + value + "}}");
+    };
+    CHECK_THAT(error(R"({"shutter": 0})"), Catch::Contains("render.motion_blur.shutter"));
+    CHECK_THAT(error(R"({"shutter": 400})"), Catch::Contains("render.motion_blur.shutter"));
+    CHECK_THAT(error(R"({"samples": 1})"), Catch::Contains("render.motion_blur.samples"));
+    CHECK_THAT(error(R"({"samples": 65})"), Catch::Contains("render.motion_blur.samples"));
+    CHECK_THAT(error(R"({"shuter": 90})"), Catch::Contains("render.motion_blur.shuter") && Catch::Contains("shutter"));
+    CHECK_THAT(error("180"), Catch::Contains("render.motion_blur: expected true, false or an object"));
+}
