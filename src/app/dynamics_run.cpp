@@ -221,6 +221,7 @@ std::string DynamicsRun::finishCaches() {
         GltfTrack track;
         track.name = o.name;
         track.colour = o.color;
+        if (o.restMesh.hasMaterials()) track.materials = o.restMesh.materials;
         for (int f = first; f <= mDone; ++f) {
             const fs::path file = meshCachePath(dir, o.name, f, mMesh);
             const std::string problem = meshCacheFileProblem(file, mMesh, f, mFrameKey);
@@ -229,9 +230,13 @@ std::string DynamicsRun::finishCaches() {
                                    ") is made from every frame's file: run with --resume to make it again");
             MeshCacheData d = readMeshCacheFrame(file);
             if (track.segments.empty() || track.segments.back().triangles != d.triangles) {
-                track.segments.emplace_back();
-                track.segments.back().firstFrame = f;
-                track.segments.back().triangles = std::move(d.triangles);
+                GltfSegment& seg = track.segments.emplace_back();
+                seg.firstFrame = f;
+                seg.triangles = std::move(d.triangles);
+                if (!track.materials.empty() && seg.triangles == o.restMesh.triangles) {  // not goo's remeshed surface
+                    seg.triangleMaterials = o.restMesh.triangleMaterials;
+                    seg.cornerUvs = o.restMesh.cornerUvs;
+                }
             }
             track.segments.back().positions.push_back(std::move(d.positions));
             track.segments.back().normals.push_back(std::move(d.normals));

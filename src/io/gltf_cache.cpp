@@ -3,6 +3,7 @@
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/checksum.hpp"
+#include "io/png.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -11,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <map>
 
 namespace dgv {
 
@@ -29,14 +31,19 @@ public:
     Json accessors = Json::array(), bufferViews = Json::array();
     std::string bin;
 
-    /// A bufferView of `bytes` (4-byte aligned), and an accessor on it; returns the accessor.
-    int add(const std::string& bytes, int componentType, const char* type, std::size_t count, int target,
-            Json minValue = nullptr, Json maxValue = nullptr) {
+    /// A bufferView of `bytes` (4-byte aligned) without an accessor (an image).
+    void addView(const std::string& bytes, int target = 0) {
         while (bin.size() % 4) bin.push_back('\0');
         Json view = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes.size()}};
         if (target) view["target"] = target;
         bufferViews.push_back(view);
         bin += bytes;
+    }
+
+    /// A bufferView of `bytes` (4-byte aligned), and an accessor on it; returns the accessor.
+    int add(const std::string& bytes, int componentType, const char* type, std::size_t count, int target,
+            Json minValue = nullptr, Json maxValue = nullptr) {
+        addView(bytes, target);
         Json acc = {
             {"bufferView", bufferViews.size() - 1}, {"componentType", componentType}, {"count", count}, {"type", type}};
         if (!minValue.is_null()) acc["min"] = minValue;
@@ -62,6 +69,13 @@ public:
         return add(bytes, kFloat, "VEC3", v.size(), target, Json{lo[0], lo[1], lo[2]}, Json{hi[0], hi[1], hi[2]});
     }
 
+    /// VEC2 floats (texture coordinates).
+    int addVec2(const std::vector<Eigen::Vector2f>& v) {
+        std::string bytes(v.size() * 8, '\0');
+        for (std::size_t i = 0; i < v.size(); ++i) std::memcpy(&bytes[8 * i], v[i].data(), 8);
+        return add(bytes, kFloat, "VEC2", v.size(), kArrayBuffer);
+    }
+
     /// SCALAR floats (animation inputs get bounds).
     int addScalars(const std::vector<float>& v, bool bounds) {
         std::string bytes(v.size() * 4, '\0');
@@ -82,6 +96,90 @@ public:
     }
 };
 
+/// A segment's vertices as written: one per (vertex, texture coordinate) where it has a look (a
+/// vertex on a UV seam once for each side), and its triangles in runs of one material.
+struct SegmentLayout {
+    std::vector<int> source;                 ///< written vertex -> the segment's vertex; empty: the same
+    std::vector<Eigen::Vector2f> uv;         ///< written vertex -> glTF's (u, 1 − v); empty: none
+    std::vector<int> runMaterial;            ///< per run: its material (−1: the track's colour)
+    std::vector<std::vector<std::array<int, 3>>> runTriangles;  ///< per run, over written vertices
+};
+
+SegmentLayout layoutOf(const GltfSegment& seg) {
+    SegmentLayout l;
+    const std::size_t nt = seg.triangles.size();
+    if (seg.cornerUvs.size() != nt || seg.triangleMaterials.size() != nt) {
+        l.runMaterial = {-1};
+        l.runTriangles = {seg.triangles};
+        return l;
+    }
+    std::vector<std::vector<int>> copies(seg.positions.empty() ? 0 : seg.positions[0].size());
+    std::vector<std::array<int, 3>> tris(nt);
+    for (std::size_t f = 0; f < nt; ++f)
+        for (std::size_t k = 0; k < 3; ++k) {
+            const int v = seg.triangles[f][k];
+            // glTF's texture coordinates start at the image's top row; dgv's (assimp's) at its bottom.
+            const Eigen::Vector2f uv(seg.cornerUvs[f][k].x(), 1.0f - seg.cornerUvs[f][k].y());
+            std::vector<int>& mine = copies[static_cast<std::size_t>(v)];
+            auto same = std::find_if(mine.begin(), mine.end(), [&](int w) { return l.uv[static_cast<std::size_t>(w)] == uv; });
+            if (same != mine.end()) {
+                tris[f][k] = *same;
+                continue;
+            }
+            tris[f][k] = static_cast<int>(l.source.size());
+            mine.push_back(tris[f][k]);
+            l.source.push_back(v);
+            l.uv.push_back(uv);
+        }
+    std::vector<std::size_t> order(nt);
+    for (std::size_t f = 0; f < nt; ++f) order[f] = f;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return seg.triangleMaterials[a] < seg.triangleMaterials[b]; });
+    for (std::size_t f : order) {
+        if (l.runMaterial.empty() || l.runMaterial.back() != seg.triangleMaterials[f]) {
+            l.runMaterial.push_back(seg.triangleMaterials[f]);
+            l.runTriangles.emplace_back();
+        }
+        l.runTriangles.back().push_back(tris[f]);
+    }
+    return l;
+}
+
+/// `v` (one per segment vertex) as written (one per written vertex).
+std::vector<Vec3> written(const std::vector<Vec3>& v, const SegmentLayout& l) {
+    if (l.source.empty()) return v;
+    std::vector<Vec3> out(l.source.size());
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = v[static_cast<std::size_t>(l.source[i])];
+    return out;
+}
+
+/// The track's materials as glTF PBR materials, their textures as PNG images in the buffer
+/// (each image once, `images` by texture); returns the first one's index.
+int addMaterials(const GltfTrack& track, GlbBuilder& b, Json& materials, Json& textures, Json& images,
+                 std::map<const TextureImage*, int>& textureOf) {
+    const int first = static_cast<int>(materials.size());
+    for (const SurfaceMaterial& m : track.materials) {
+        Json pbr = {{"baseColorFactor", {m.baseColour.x(), m.baseColour.y(), m.baseColour.z(), 1.0}},
+                    {"metallicFactor", m.metallic},
+                    {"roughnessFactor", m.roughness >= 0 ? m.roughness : 0.5}};
+        if (const TextureImage* t = m.baseColourMap.get(); t && t->width > 0) {
+            auto found = textureOf.find(t);
+            if (found == textureOf.end()) {
+                Image img(t->width, t->height);
+                for (std::size_t i = 0; i < img.rgba.size(); ++i) img.rgba[i] = static_cast<std::uint16_t>(t->rgba[i] * 257);
+                const std::vector<unsigned char> png = encodePng(img);
+                b.addView(std::string(png.begin(), png.end()));
+                images.push_back({{"bufferView", b.bufferViews.size() - 1}, {"mimeType", "image/png"}});
+                textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+                found = textureOf.emplace(t, static_cast<int>(textures.size() - 1)).first;
+            }
+            pbr["baseColorTexture"] = {{"index", found->second}};
+        }
+        materials.push_back({{"name", m.name}, {"pbrMetallicRoughness", pbr}});
+    }
+    return first;
+}
+
 std::string frameName(int frame) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "frame_%04d", frame);
@@ -100,6 +198,8 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
     GlbBuilder b;
     Json nodes = Json::array(), meshes = Json::array(), materials = Json::array();
     Json samplers = Json::array(), channels = Json::array();
+    Json textures = Json::array(), images = Json::array();
+    std::map<const TextureImage*, int> textureOf;
     auto timeOf = [&](int frame) { return static_cast<float>((frame - info.firstFrame) / info.fps); };
 
     for (const GltfTrack& track : tracks) {
@@ -109,34 +209,45 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
                                {"metallicFactor", 0.0},
                                {"roughnessFactor", 0.5}}}});
         const int material = static_cast<int>(materials.size() - 1);
+        const int firstLook = addMaterials(track, b, materials, textures, images, textureOf);
         const int trackFirst = track.segments.empty() ? 0 : track.segments.front().firstFrame;
         for (std::size_t s = 0; s < track.segments.size(); ++s) {
             const GltfSegment& seg = track.segments[s];
             const std::size_t frames = seg.positions.size();
             if (frames == 0) continue;
-            Json prim = {
-                {"attributes",
-                 {{"POSITION", b.addVec3(seg.positions[0], true)}, {"NORMAL", b.addVec3(seg.normals[0], false)}}},
-                {"indices", b.addIndices(seg.triangles)},
-                {"material", material},
-                {"mode", 4}};
+            const SegmentLayout layout = layoutOf(seg);
+            const std::vector<Vec3> basePositions = written(seg.positions[0], layout);
+            const std::vector<Vec3> baseNormals = written(seg.normals[0], layout);
+            Json attributes = {{"POSITION", b.addVec3(basePositions, true)}, {"NORMAL", b.addVec3(baseNormals, false)}};
+            if (!layout.uv.empty()) attributes["TEXCOORD_0"] = b.addVec2(layout.uv);
             Json targets = Json::array(), names = Json::array();
-            std::vector<Vec3> delta(seg.positions[0].size());
+            std::vector<Vec3> delta(basePositions.size());
             for (std::size_t k = 1; k < frames; ++k) {
-                for (std::size_t v = 0; v < delta.size(); ++v) delta[v] = seg.positions[k][v] - seg.positions[0][v];
+                const std::vector<Vec3> p = written(seg.positions[k], layout), n = written(seg.normals[k], layout);
+                for (std::size_t v = 0; v < delta.size(); ++v) delta[v] = p[v] - basePositions[v];
                 const int dp = b.addVec3(delta, true);
-                for (std::size_t v = 0; v < delta.size(); ++v) delta[v] = seg.normals[k][v] - seg.normals[0][v];
+                for (std::size_t v = 0; v < delta.size(); ++v) delta[v] = n[v] - baseNormals[v];
                 const int dn = b.addVec3(delta, false);
                 targets.push_back({{"POSITION", dp}, {"NORMAL", dn}});
                 names.push_back(frameName(seg.firstFrame + static_cast<int>(k)));
             }
+            // One primitive per material, all on the same vertices and morph targets.
+            Json primitives = Json::array();
+            for (std::size_t r = 0; r < layout.runMaterial.size(); ++r) {
+                const int m = layout.runMaterial[r];
+                Json prim = {{"attributes", attributes},
+                             {"indices", b.addIndices(layout.runTriangles[r])},
+                             {"material", m >= 0 ? firstLook + m : material},
+                             {"mode", 4}};
+                if (!targets.empty()) prim["targets"] = targets;
+                primitives.push_back(prim);
+            }
             Json mesh = {{"name", track.name}};
             if (!targets.empty()) {
-                prim["targets"] = targets;
                 mesh["weights"] = std::vector<float>(targets.size(), 0.0f);
                 mesh["extras"] = {{"targetNames", names}};
             }
-            mesh["primitives"] = Json::array({prim});
+            mesh["primitives"] = primitives;
             meshes.push_back(mesh);
             const std::string nodeName = s == 0 ? track.name : track.name + "." + std::to_string(s + 1);
             Json node = {{"name", nodeName}, {"mesh", meshes.size() - 1}};
@@ -194,6 +305,12 @@ std::string gltfShotBytes(const std::vector<GltfTrack>& tracks, const GltfShotIn
         doc["accessors"] = b.accessors;
         doc["bufferViews"] = b.bufferViews;
         doc["buffers"] = Json::array({{{"byteLength", b.bin.size()}}});
+    }
+    if (!images.empty()) {
+        doc["images"] = images;
+        doc["textures"] = textures;
+        // linear, trilinear, repeating: what dgv's renderer samples with
+        doc["samplers"] = Json::array({{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 10497}, {"wrapT", 10497}}});
     }
     if (!channels.empty())
         doc["animations"] = Json::array({{{"name", "dgv"}, {"samplers", samplers}, {"channels", channels}}});

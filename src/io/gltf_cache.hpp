@@ -13,11 +13,17 @@
 /// weight 1 (none at the first), and LINEAR interpolation blends two neighbouring frames between their times (a
 /// sub-frame sample, e.g. for motion blur, gets the blend of the frames either side).
 ///
+/// An object drawn in its mesh file's look (docs/rendering.md, "Materials from the file") keeps
+/// it: its materials as glTF PBR materials (base colour factor and texture, metalness, roughness),
+/// their textures as PNG images inside the file, TEXCOORD_0 on its vertices (a vertex on a UV seam
+/// written once for each side: the morph targets follow), one primitive per material.
+///
 /// A goo body that is re-parametrised changes its triangles (docs/math.md); glTF's morph targets
 /// need one topology, so each run of frames with the same triangles is a mesh and node of its own
 /// (`<object>`, `<object>.2`, ...), shown only for its frames by a STEP animation of its scale
 /// (0 outside them).
 
+#include "base/material.hpp"
 #include "base/types.hpp"
 
 #include <array>
@@ -33,12 +39,17 @@ struct GltfSegment {
     std::vector<std::array<int, 3>> triangles;
     std::vector<std::vector<Vec3>> positions;  ///< per frame from firstFrame, one per vertex
     std::vector<std::vector<Vec3>> normals;    ///< the same shape
+    /// The look, per triangle (TriangleMesh's lists; both empty: the track's colour): its
+    /// material in GltfTrack::materials (−1: the track's colour) and its corners' coordinates.
+    std::vector<int> triangleMaterials;
+    std::vector<std::array<Eigen::Vector2f, 3>> cornerUvs;
 };
 
 struct GltfTrack {
     std::string name;
     Vec3 colour = Vec3(0.8, 0.8, 0.8);  ///< linear RGB
     std::vector<GltfSegment> segments;  ///< in frame order, each starting where the last ends
+    std::vector<SurfaceMaterial> materials;  ///< the segments' looks index into these
 };
 
 struct GltfShotInfo {

@@ -10,6 +10,8 @@
 #include "geom/primitives.hpp"
 #include "geom/triangle_mesh.hpp"
 #include "io/mesh_cache.hpp"
+#include "io/mesh_import.hpp"
+#include "io/texture.hpp"
 #include "support/helpers.hpp"
 
 #include <assimp/Importer.hpp>
@@ -21,6 +23,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 using namespace dgv;
 namespace fs = std::filesystem;
@@ -213,6 +216,113 @@ TEST_CASE("gltf: assimp reads the shot with its morph targets", "[io][meshcache]
         hi = std::max<Real>(hi, m->mAnimMeshes[0]->mVertices[v].y);
     }
     CHECK(hi - lo == Approx(0.5).epsilon(1e-3));
+}
+
+TEST_CASE("gltf: a mesh file's look is kept: materials, textures and texture coordinates across a seam",
+          "[io][meshcache][gltf][materials]") {
+    // A unit square in two triangles over 4 vertices; vertex 0 has another coordinate in the
+    // second triangle (a seam), so 5 vertices are written. Triangle 0 is "tex" (a 2x1 texture),
+    // triangle 1 "blue"; two frames, the second lifted by 0.25 in y.
+    test::TempDir dir("gltf_look");
+    GltfTrack t;
+    t.name = "square";
+    t.colour = Vec3(0.5, 0.5, 0.5);
+    auto texture = std::make_shared<TextureImage>();
+    texture->width = 2;
+    texture->height = 1;
+    texture->rgba = {255, 0, 0, 255, 0, 0, 255, 255};
+    SurfaceMaterial tex, blue;
+    tex.name = "tex";
+    tex.baseColourMap = texture;
+    tex.roughness = 0.3;
+    blue.name = "blue";
+    blue.baseColour = Vec3(0, 0, 1);
+    blue.metallic = 1;
+    t.materials = {tex, blue};
+    GltfSegment s;
+    s.firstFrame = 1;
+    s.triangles = {{0, 1, 2}, {0, 2, 3}};
+    const std::vector<Vec3> square = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)};
+    for (Real lift : {0.0, 0.25}) {
+        std::vector<Vec3> x = square;
+        for (Vec3& p : x) p.y() += lift;
+        s.positions.push_back(x);
+        s.normals.push_back(vertexNormals(x, s.triangles));
+    }
+    s.triangleMaterials = {0, 1};
+    s.cornerUvs = {{Eigen::Vector2f(0, 0), Eigen::Vector2f(1, 0), Eigen::Vector2f(1, 1)},
+                   {Eigen::Vector2f(0.5f, 0.25f), Eigen::Vector2f(1, 1), Eigen::Vector2f(0, 1)}};
+    t.segments = {s};
+    const std::string bytes = gltfShotBytes({t}, GltfShotInfo());
+    const Glb glb(bytes);
+    const Json& doc = glb.doc;
+    const Json& prims = doc["meshes"][0]["primitives"];
+    REQUIRE(prims.size() == 2);
+    // one material per primitive: the file's, after the track's own colour
+    CHECK(doc["materials"][prims[0]["material"].get<int>()]["name"] == "tex");
+    CHECK(doc["materials"][prims[1]["material"].get<int>()]["name"] == "blue");
+    const Json& texPbr = doc["materials"][prims[0]["material"].get<int>()]["pbrMetallicRoughness"];
+    CHECK(texPbr["roughnessFactor"].get<double>() == Approx(0.3));
+    CHECK(doc["materials"][prims[1]["material"].get<int>()]["pbrMetallicRoughness"]["metallicFactor"] == 1.0);
+    // 5 vertices; each written vertex's coordinate is its corner's (u, 1 − v), its positions its
+    // source vertex's in both frames
+    const int uvAccessor = prims[0]["attributes"]["TEXCOORD_0"].get<int>();
+    CHECK(prims[1]["attributes"]["TEXCOORD_0"] == uvAccessor);
+    const Json& uvAcc = doc["accessors"][uvAccessor];
+    CHECK(uvAcc["type"] == "VEC2");
+    REQUIRE(uvAcc["count"] == 5);
+    std::vector<float> uv(10);
+    std::memcpy(uv.data(), glb.bin.data() + doc["bufferViews"][uvAcc["bufferView"].get<int>()]["byteOffset"].get<std::size_t>(), 40);
+    const std::vector<float> base = glb.floats(prims[0]["attributes"]["POSITION"].get<int>());
+    const std::vector<float> lift = glb.floats(prims[0]["targets"][0]["POSITION"].get<int>());
+    REQUIRE(base.size() == 15);
+    for (int w = 0; w < 5; ++w) {
+        // the square's corner at (x, y) has uv (x, y) but for vertex 0's second copy, (0.5, 0.25)
+        const float x = base[3 * w], y = base[3 * w + 1];
+        const bool seamCopy = x == 0 && y == 0 && uv[2 * w] == 0.5f;
+        CHECK(uv[2 * w] == (seamCopy ? 0.5f : x));
+        CHECK(uv[2 * w + 1] == 1 - (seamCopy ? 0.25f : y));
+        CHECK(lift[3 * w + 1] == Approx(0.25));
+        CHECK(lift[3 * w] == 0);
+    }
+    // the texture inside the file decodes to its texels
+    REQUIRE(doc["images"].size() == 1);
+    const Json& view = doc["bufferViews"][doc["images"][0]["bufferView"].get<int>()];
+    const std::string png = glb.bin.substr(view["byteOffset"].get<std::size_t>(), view["byteLength"].get<std::size_t>());
+    CHECK(doc["images"][0]["mimeType"] == "image/png");
+    const TextureImage back = decodeTexture(reinterpret_cast<const unsigned char*>(png.data()), png.size(), "glb");
+    CHECK(back.rgba == texture->rgba);
+    CHECK(doc["textures"][texPbr["baseColorTexture"]["index"].get<int>()]["source"] == 0);
+
+    SECTION("dgv's own importer reads the look back: the same materials, texture and corners") {
+        const fs::path path = dir.path() / "shot.glb";
+        std::ofstream(path, std::ios::binary) << bytes;
+        test::FpTrapsOff guard;
+        MeshImportOptions o;
+        o.materials = true;
+        o.orientOutward = false;
+        const TriangleMesh m = importMesh(path, o);
+        REQUIRE(m.hasMaterials());
+        REQUIRE(m.triangles.size() == 2);
+        for (std::size_t f = 0; f < 2; ++f) {
+            const SurfaceMaterial& mat = m.materials[static_cast<std::size_t>(m.triangleMaterials[f])];
+            const bool isTex = mat.name == "tex";
+            CHECK((isTex ? bool(mat.baseColourMap) : !mat.baseColourMap));
+            if (isTex) CHECK(mat.baseColourMap->rgba == texture->rgba);
+            // each corner's coordinate as written, matched by its position
+            const std::size_t src = isTex ? 0 : 1;
+            for (std::size_t k = 0; k < 3; ++k) {
+                const Vec3& p = m.vertices[static_cast<std::size_t>(m.triangles[f][k])];
+                bool found = false;
+                for (std::size_t j = 0; j < 3; ++j)
+                    if ((square[static_cast<std::size_t>(s.triangles[src][j])] - p).norm() < 1e-6) {
+                        found = true;
+                        CHECK(m.cornerUvs[f][k].isApprox(s.cornerUvs[src][j]));
+                    }
+                CHECK(found);
+            }
+        }
+    }
 }
 
 TEST_CASE("mesh cache: a PLY frame reads back whole, and another file is refused by name", "[io][meshcache][gltf]") {
