@@ -229,10 +229,7 @@ int blurSamples(const SceneDesc& scene, const DynamicsRun& dynamics, const std::
         const bool moves = dynamics.surfaceAt(i, frame, opens, before) && dynamics.surfaceAt(i, frame, frame, after);
         if (!moves && !cameraMoves) continue;
         if (!moves) {
-            if (const DeformableBody* body = dynamics.body(i))
-                deformVertices(dynamics.embedding(i), body->state(), after);
-            else
-                after = objects[i].restMesh.vertices;
+            dynamics.drawnSurface(i, after);
             before = after;
         }
         Vec2 a, b;
@@ -322,6 +319,7 @@ int runRender(const RenderOptions& options) {
     FrameView view(scene, std::move(viewObjects), colliderDrawMeshes(scene));
     const Box3& bounds = view.bounds();
     std::vector<ViewBody> viewBodies(objects.size());
+    std::vector<std::vector<Vec3>> drawn(objects.size());  // each moving body's surface as drawn
 
     PngWriteOptions png;
     png.bitDepth = scene.render.bitDepth;
@@ -372,8 +370,9 @@ int runRender(const RenderOptions& options) {
         const Camera camera = frameCamera(scene, bounds, frame, aspect);
         for (std::size_t i = 0; i < objects.size(); ++i) {
             const DeformableBody* body = dynamics.body(i);
+            if (body) dynamics.drawnSurface(i, drawn[i]);
             viewBodies[i] = body ? ViewBody{body, &dynamics.surfaceMesh(i), &dynamics.embedding(i),
-                                            &dynamics.contactHistory(i).age()}
+                                            &dynamics.contactHistory(i).age(), &drawn[i]}
                                  : ViewBody{};
         }
         LinearImage linear;

@@ -81,6 +81,15 @@ const TriangleMesh& DynamicsRun::surfaceMesh(std::size_t i) const {
     return m ? *m : mObjects[i].restMesh;
 }
 
+void DynamicsRun::drawnSurface(std::size_t i, std::vector<Vec3>& vertices) const {
+    const DeformableBody* b = body(i);
+    if (b) mSim->drawnSurface(i, vertices);
+    if (!b)
+        vertices = mObjects[i].restMesh.vertices;
+    else if (vertices.empty())  // a body without a surface of its own
+        deformVertices(embedding(i), b->state(), vertices);
+}
+
 const MeshEmbedding& DynamicsRun::embedding(std::size_t i) const {
     const MeshEmbedding* e = mSim->body(i) ? mSim->surfaceEmbedding(i) : nullptr;
     return e ? *e : mObjects[i].embedding;
@@ -101,7 +110,7 @@ void DynamicsRun::recordMotion(Real shutterFrames) {
         m.time = (frame - 1) + Real(k) / sub;
         m.surfaces.resize(mObjects.size());
         for (std::size_t i = 0; i < mObjects.size(); ++i)
-            if (const DeformableBody* b = body(i)) deformVertices(embedding(i), b->state(), m.surfaces[i]);
+            if (body(i)) drawnSurface(i, m.surfaces[i]);
         mMotion.push_back(std::move(m));
     });
 }
@@ -155,7 +164,7 @@ void DynamicsRun::writeVdb(int frame) {
         o.restVolumes = &b->restVolumes();
         if (mScene.output.vdbSurface) {
             surfaces[i].triangles = surfaceMesh(i).triangles;
-            deformVertices(embedding(i), b->state(), surfaces[i].vertices);
+            drawnSurface(i, surfaces[i].vertices);
             o.surface = &surfaces[i];
         }
         objs.push_back(o);
@@ -199,7 +208,7 @@ void DynamicsRun::writeMeshes(int frame) {
         f.colour = mObjects[i].color;
         f.triangles = &surfaceMesh(i).triangles;
         if (b) {
-            deformVertices(embedding(i), b->state(), positions);
+            drawnSurface(i, positions);
             // The contact set R (0/1 per lattice point) carried to the vertices like the positions.
             std::vector<Real> inR(b->contact().begin(), b->contact().end());
             pointScalarToVertices(embedding(i), inR, contact);

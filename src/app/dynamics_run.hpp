@@ -49,6 +49,10 @@ public:
     const MeshEmbedding& embedding(std::size_t i) const;
     /// Object i's surface at rest on that lattice (its triangles change when goo is remapped).
     const TriangleMesh& surfaceMesh(std::size_t i) const;
+    /// Object i's surface as the frames, the mesh cache and the VDB surface show it now (a moving
+    /// body's lifted out of the static colliders: Simulation::drawnSurface), on surfaceMesh(i)'s
+    /// triangles; the rest mesh for an object that does not move.
+    void drawnSurface(std::size_t i, std::vector<Vec3>& vertices) const;
     bool active() const { return mSim->active(); }
     /// The most substeps a frame takes (Simulation::maxSubsteps).
     int maxSubsteps() const { return mSim->maxSubsteps(); }

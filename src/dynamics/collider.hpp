@@ -6,6 +6,7 @@
 #include "base/types.hpp"
 
 #include <functional>
+#include <vector>
 
 namespace dgv {
 
@@ -37,5 +38,11 @@ struct Collider {
     /// Signed distance and its gradient at x.
     Real evaluate(const Vec3& x, Vec3& gradient) const;
 };
+
+/// Moves each point that lies inside one of the static `colliders` (another body's surface is
+/// skipped) out onto that collider's surface along its distance's gradient (Newton steps on φ = 0:
+/// one for a plane or a sphere, a few for a distance grid). In parallel. Returns the largest
+/// depth a point was moved from (0: none was inside).
+Real liftOutOfColliders(const std::vector<Collider>& colliders, std::vector<Vec3>& points);
 
 }  // namespace dgv

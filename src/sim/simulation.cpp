@@ -733,6 +733,14 @@ void Simulation::setSurface(std::size_t object, const TriangleMesh* restMesh, co
     mOwnSurfaces[object] = mSurfaces[object];
 }
 
+void Simulation::drawnSurface(std::size_t i, std::vector<Vec3>& vertices) const {
+    vertices.clear();
+    const MeshEmbedding* embedding = surfaceEmbedding(i);
+    if (i >= mBodies.size() || !mBodies[i] || !embedding) return;
+    deformVertices(*embedding, mBodies[i]->state(), vertices);
+    liftOutOfColliders(mColliders, vertices);
+}
+
 bool Simulation::checkSurfaces(FrameStats& s, int* failed, SurfaceCheck* failedCheck) const {
     SurfaceCheck all;  // the sums, for the stats; each body's surface passes or fails on its own
     bool allOk = true;

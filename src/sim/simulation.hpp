@@ -133,6 +133,10 @@ public:
     /// by setSurface until the body is re-parametrised, then the surface as it was at the last
     /// remap, embedded in the new lattice (nullptr: no surface).
     const TriangleMesh* surfaceMesh(std::size_t object) const;
+    /// Object `object`'s surface as drawn and cached: its embedded vertices in the body's state,
+    /// each one inside a static collider moved out onto that collider's surface (docs/math.md,
+    /// "The drawn surface stays out of the colliders"). Empty without a body or a surface.
+    void drawnSurface(std::size_t object, std::vector<Vec3>& vertices) const;
     const MeshEmbedding* surfaceEmbedding(std::size_t object) const;
     /// How often object i's body has been re-voxelised in its current shape (docs/math.md,
     /// "Re-parametrisation"). Goo (no stiffness, no pins) is, when its lattice distorts past

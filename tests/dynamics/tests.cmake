@@ -2,6 +2,7 @@ list(APPEND DGV_TEST_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/test_forces.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_forces_from_scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_body.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_collider.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_stepper.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_cell_solve.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_stepper_long.cpp

@@ -230,3 +230,32 @@ TEST_CASE("e2e: goo_viscosity's thick ball lands as a mound and stays taller tha
     CHECK(thin.x() > 1.5 * thick.x());      // measured 1.38 and 0.75 m
     CHECK(extent("thick", 24).y() > 0.33);  // still a mound a second after landing (measured 0.37)
 }
+
+TEST_CASE("e2e: the drawn surface stays out of the static colliders, frame by frame", "[e2e][collider]") {
+    // A jelly ball dropped onto a sphere collider rolls off it onto the ground. Its lattice
+    // points sink into both by up to about a voxel at the landings (the step's contact layer);
+    // the mesh cache, which is what the frames draw, has no vertex inside either.
+    test::TempDir dir("e2e_drawn_surface");
+    std::ofstream(dir.path() / "s.json") << R"({"name": "drape", "frames": {"start": 1, "end": 30, "fps": 24},
+  "objects": [{"name": "ball", "primitive": {"type": "sphere", "radius": 0.25}, "resolution": 10,
+               "transform": {"translate": [0.08, 0.95, 0]}, "material": {"preset": "jelly"}}],
+  "forces": [{"type": "gravity"}],
+  "colliders": [{"type": "sphere", "centre": [0, 0.3, 0], "radius": 0.3}, {"type": "ground"}],
+  "output": {"mesh": "ply"}})";
+    const Run r = runDgvIn(dir.path(), "-q simulate s.json --out o");
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    double lowest = 1e9, nearest = 1e9;
+    for (int f = 1; f <= 30; ++f) {
+        char name[64];
+        std::snprintf(name, sizeof name, "o/mesh/ball.%04d.ply", f);
+        const MeshCacheData d = readMeshCacheFrame(dir.path() / name);
+        for (const Vec3& v : d.positions) {
+            lowest = std::min(lowest, v.y());
+            nearest = std::min(nearest, (v - Vec3(0, 0.3, 0)).norm());
+        }
+    }
+    CHECK(lowest >= -1e-5);
+    CHECK(nearest >= 0.3 - 1e-5);
+    CHECK(lowest < 0.01);  // it did reach the ground
+}
