@@ -31,6 +31,8 @@ Mat4 Camera::clipFromView(Real aspect, Real nearZ, Real farZ) const {
     Mat4 m = Mat4::Zero();
     m(0, 0) = t / aspect;
     m(1, 1) = t;
+    m(0, 2) = -m(0, 0) * lensShift.x();  // x_ndc = m00 (x/(−z) + shift)
+    m(1, 2) = -m(1, 1) * lensShift.y();
     m(2, 2) = (farZ + nearZ) / (nearZ - farZ);
     m(2, 3) = 2.0 * farZ * nearZ / (nearZ - farZ);
     m(3, 2) = -1.0;

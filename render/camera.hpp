@@ -13,6 +13,9 @@ struct Camera {
     Real fovYDegrees = 35;  ///< vertical field of view
     Real nearClip = 0;      ///< 0: chosen from the scene bounds
     Real farClip = 0;       ///< 0: chosen from the scene bounds
+    /// Off-axis projection: added to the tangents x/(−z), y/(−z) of the view (a lens sample of
+    /// depth of field keeps its focus plane in place by it); 0: a centred view.
+    Vec2 lensShift = Vec2::Zero();
 
     /// World -> camera (view) matrix, looking down -Z in camera space.
     Mat4 viewFromWorld() const;

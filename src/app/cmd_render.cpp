@@ -241,20 +241,25 @@ int blurSamples(const SceneDesc& scene, const DynamicsRun& dynamics, const std::
     return static_cast<int>(std::clamp(n, Real(2), Real(scene.render.motionBlurSamples)));
 }
 
-/// A frame under motion blur (render.motion_blur; docs/rendering.md, "Motion blur"): the mean,
-/// in linear light, of n renders (blurSamples) at times spread evenly over the shutter, from its opening to the frame's time: each moving body where the simulation's own
-/// substeps had it then (DynamicsRun::surfaceAt), the camera on its path. The contact matte is
-/// averaged as the colour is, the depth is the nearest over the samples.
-LinearImage blurredFrame(Renderer& renderer, FrameView& view, const SceneDesc& scene, const DynamicsRun& dynamics,
-                         std::vector<ViewBody> bodies, int frame, int n, const Box3& bounds, Real aspect) {
+/// A frame drawn as the mean of n renders (docs/rendering.md, "Motion blur", "Depth of field"):
+/// in linear light, the contact matte averaged as the colour is, the depth the nearest over the
+/// renders. Under motion blur (`spread`) their times are spread evenly over the shutter, from its
+/// opening to the frame's time: each moving body where the simulation's own substeps had it then
+/// (DynamicsRun::surfaceAt), the camera on its path. With camera.depth_of_field each is seen
+/// through its own point of the lens (lensSample).
+LinearImage accumulatedFrame(Renderer& renderer, FrameView& view, const SceneDesc& scene, const DynamicsRun& dynamics,
+                             std::vector<ViewBody> bodies, int frame, int n, bool spread, const Box3& bounds,
+                             Real aspect) {
     const Real shutter = scene.render.motionBlurShutter / 360;
     std::vector<std::vector<Vec3>> surfaces(bodies.size());
     LinearImage sum, sample;
     for (int j = 0; j < n; ++j) {
-        const Real t = frame - shutter * Real(n - 1 - j) / Real(n - 1);
-        for (std::size_t i = 0; i < bodies.size(); ++i)
-            bodies[i].vertices = bodies[i].body && dynamics.surfaceAt(i, frame, t, surfaces[i]) ? &surfaces[i] : nullptr;
-        const Camera camera = frameCamera(scene, bounds, t, aspect);
+        const Real t = spread ? frame - shutter * Real(n - 1 - j) / Real(n - 1) : Real(frame);
+        if (spread)
+            for (std::size_t i = 0; i < bodies.size(); ++i)
+                if (bodies[i].body && dynamics.surfaceAt(i, frame, t, surfaces[i])) bodies[i].vertices = &surfaces[i];
+        Camera camera = frameCamera(scene, bounds, t, aspect);
+        if (scene.camera.depthOfField) camera = lensSample(camera, scene.camera, aspect, j, n);
         renderer.render(view.update(bodies, camera), camera, &sample);
         if (j == 0) {
             sum = sample;
@@ -286,9 +291,9 @@ int runRender(const RenderOptions& options) {
             logInfo("--contact-sheet: '" + scene.name +
                     "' is a curve scene (the GLN figures), which has no contact sheet; "
                     "rendering its frames without one");
-        if (scene.render.motionBlur)
-            logInfo("render.motion_blur: '" + scene.name +
-                    "' is a curve scene (the GLN figures), whose frames are drawn without it");
+        if (scene.render.motionBlur || scene.camera.depthOfField)
+            logInfo("render.motion_blur and camera.depth_of_field: '" + scene.name +
+                    "' is a curve scene (the GLN figures), whose frames are drawn without them");
         scene.render.motionBlur = false;
         return renderCurveScene(scene, renderSettingsOf(scene.render, backend), first, last);
     }
@@ -305,7 +310,8 @@ int runRender(const RenderOptions& options) {
     const bool blur = scene.render.motionBlur;
     if (blur) dynamics.recordMotion(scene.render.motionBlurShutter / 360);
 
-    const RenderSettings rs = renderSettingsOf(scene.render, backend);
+    RenderSettings rs = renderSettingsOf(scene.render, backend);
+    rs.linearPlanes = rs.linearPlanes || scene.camera.depthOfField;  // its renders are averaged in linear light
     Renderer renderer(rs);
     const std::string glName = renderer.glRenderer();
 
@@ -377,9 +383,11 @@ int runRender(const RenderOptions& options) {
         }
         LinearImage linear;
         Image image;
-        const int samples = blur ? blurSamples(scene, dynamics, objects, frame, bounds, rs) : 1;
+        const int moving = blur ? blurSamples(scene, dynamics, objects, frame, bounds, rs) : 1;
+        const int samples = std::max(moving, scene.camera.depthOfField ? scene.camera.dofSamples : 1);
         if (samples > 1) {
-            linear = blurredFrame(renderer, view, scene, dynamics, viewBodies, frame, samples, bounds, aspect);
+            linear = accumulatedFrame(renderer, view, scene, dynamics, viewBodies, frame, samples, moving > 1, bounds,
+                                      aspect);
             image = encodedImageOf(linear);
         } else {
             image = renderer.render(view.update(viewBodies, camera), camera, exr ? &linear : nullptr);

@@ -705,6 +705,12 @@ void readCamera(ObjectReader& c, CameraDesc& d) {
     std::string type = c.choice("type", "turntable", {"turntable", "look_at", "keyframed"});
     d.fovDegrees = c.number("fov", d.fovDegrees, 1, 170);
     d.lens = readLens(c, std::nullopt);
+    c.object("depth_of_field", [&](ObjectReader& f) {
+        d.depthOfField = f.boolean("enabled", true);
+        d.fStop = f.number("f_stop", d.fStop, 0, 1e4, true);
+        d.focusDistance = f.number("focus_distance", d.focusDistance, 0, 1e7, true);
+        d.dofSamples = f.integer("samples", d.dofSamples, 2, 256);
+    });
     if (type == "turntable") {
         d.type = CameraType::Turntable;
         d.degrees = c.number("degrees", d.degrees, -36000, 36000);

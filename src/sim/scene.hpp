@@ -200,6 +200,13 @@ struct CameraDesc : FieldOfView {
     Vec3 up = Vec3::UnitY();
     // keyframed: frames increasing; held before the first and after the last key (up as above)
     std::vector<CameraKey> keys;
+    /// camera.depth_of_field: each frame the mean of `dofSamples` views through a lens of
+    /// focal length / f-stop aperture, sharp at `focusDistance` (0: the distance from the eye to
+    /// the target, a turntable's the shapes' centre).
+    bool depthOfField = false;
+    Real fStop = 2.8;
+    Real focusDistance = 0;
+    int dofSamples = 16;
 };
 
 /// render.contact.mode: how the contact set R shows on a surface (view/contact_highlight).

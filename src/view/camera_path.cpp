@@ -3,6 +3,7 @@
 #include "view/camera_path.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace dgv {
@@ -44,6 +45,29 @@ Camera frameCamera(const SceneDesc& scene, const Box3& bounds, Real frame, Real 
     const Real frames = scene.frameEnd - scene.frameStart + 1;
     const Real angle = c.startDegrees + c.degrees * (frame - scene.frameStart) / frames;
     return turntableCamera(bounds, angle, c.elevationDegrees, c.vertical(aspect), aspect, c.margin);
+}
+
+Camera lensSample(const Camera& camera, const CameraDesc& desc, Real aspect, int k, int n) {
+    constexpr Real kPi = 3.14159265358979323846;
+    const Real sensor = (desc.lens ? desc.lens->sensorMm : 36) / 1000;
+    const Real tanLong = std::tan(camera.fovYDegrees * kPi / 360) * std::max(aspect, Real(1));
+    const Real focal = sensor / 2 / tanLong;
+    const Real aperture = focal / (2 * desc.fStop);
+    const Vec3 view = camera.target - camera.eye;
+    const Real focus = desc.focusDistance > 0 ? desc.focusDistance : view.norm();
+    const Vec3 forward = view.normalized();
+    const Vec3 right = forward.cross(camera.up).normalized();
+    const Vec3 up = right.cross(forward);
+    // Vogel's spiral: radius √((k + ½)/n), turning by the golden angle.
+    const Real r = aperture * std::sqrt((k + 0.5) / n);
+    const Real a = k * kPi * (3 - std::sqrt(Real(5)));
+    const Vec2 d(r * std::cos(a), r * std::sin(a));
+    Camera sample = camera;
+    const Vec3 move = d.x() * right + d.y() * up;
+    sample.eye += move;
+    sample.target += move;
+    sample.lensShift = camera.lensShift + d / focus;
+    return sample;
 }
 
 }  // namespace dgv

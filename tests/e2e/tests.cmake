@@ -12,4 +12,5 @@ list(APPEND DGV_TEST_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/test_farm.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_exr_frames.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_materials_render.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/test_motion_blur.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/test_motion_blur.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_depth_of_field.cpp)
