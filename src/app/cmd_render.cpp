@@ -277,6 +277,43 @@ LinearImage accumulatedFrame(Renderer& renderer, FrameView& view, const SceneDes
     return sum;
 }
 
+/// What draws a simulated frame: the bodies as the dynamics left them (their surfaces as drawn,
+/// DynamicsRun::drawnSurface) through the view and the renderer, once, or as the mean of renders
+/// under motion blur and depth of field.
+struct FrameDrawer {
+    Renderer& renderer;
+    FrameView& view;
+    const SceneDesc& scene;
+    const DynamicsRun& dynamics;
+    const std::vector<BuiltObject>& objects;
+    const Box3& bounds;
+    const RenderSettings& rs;
+    std::vector<ViewBody> bodies = std::vector<ViewBody>(objects.size());
+    std::vector<std::vector<Vec3>> drawn = std::vector<std::vector<Vec3>>(objects.size());
+
+    /// The image of `frame`; its linear planes in `linear` too where it is a mean of renders or
+    /// `wantLinear` (EXR).
+    Image draw(int frame, LinearImage& linear, bool wantLinear) {
+        const Real aspect = Real(rs.width) / Real(rs.height);
+        for (std::size_t i = 0; i < objects.size(); ++i) {
+            const DeformableBody* body = dynamics.body(i);
+            if (body) dynamics.drawnSurface(i, drawn[i]);
+            bodies[i] = body ? ViewBody{body, &dynamics.surfaceMesh(i), &dynamics.embedding(i),
+                                        &dynamics.contactHistory(i).age(), &drawn[i]}
+                             : ViewBody{};
+        }
+        const int moving = scene.render.motionBlur ? blurSamples(scene, dynamics, objects, frame, bounds, rs) : 1;
+        const int samples = std::max(moving, scene.camera.depthOfField ? scene.camera.dofSamples : 1);
+        if (samples > 1) {
+            linear = accumulatedFrame(renderer, view, scene, dynamics, bodies, frame, samples, moving > 1, bounds,
+                                      aspect);
+            return encodedImageOf(linear);
+        }
+        const Camera camera = frameCamera(scene, bounds, frame, aspect);
+        return renderer.render(view.update(bodies, camera), camera, wantLinear ? &linear : nullptr);
+    }
+};
+
 }  // namespace
 
 int runRender(const RenderOptions& options) {
@@ -324,8 +361,7 @@ int runRender(const RenderOptions& options) {
         viewObjects.push_back({&o.restMesh, &o.lattice, &o.embedding, &o.state, o.color});
     FrameView view(scene, std::move(viewObjects), colliderDrawMeshes(scene));
     const Box3& bounds = view.bounds();
-    std::vector<ViewBody> viewBodies(objects.size());
-    std::vector<std::vector<Vec3>> drawn(objects.size());  // each moving body's surface as drawn
+    FrameDrawer drawer{renderer, view, scene, dynamics, objects, bounds, rs};
 
     PngWriteOptions png;
     png.bitDepth = scene.render.bitDepth;
@@ -335,7 +371,6 @@ int runRender(const RenderOptions& options) {
             std::to_string(rs.width) + "x" + std::to_string(rs.height) + " into " + scene.output.dir + " (" + glName +
             ")");
     Progress progress("render", last - first + 1, "frames");
-    const Real aspect = Real(rs.width) / Real(rs.height);
     // Frame n is encoded and written on a worker thread while frame n+1 draws (same bytes,
     // same atomic writes; one frame in flight). Progress counts frames once they are on disk.
     PngWriteQueue writer;
@@ -373,25 +408,8 @@ int runRender(const RenderOptions& options) {
         // Under motion blur the frame itself is simulated (its substeps are the blur's samples).
         if (frame > dynamics.done() + 1) dynamics.restoreCheckpoint(blur ? frame - 1 : frame);
         dynamics.advanceTo(frame);
-        const Camera camera = frameCamera(scene, bounds, frame, aspect);
-        for (std::size_t i = 0; i < objects.size(); ++i) {
-            const DeformableBody* body = dynamics.body(i);
-            if (body) dynamics.drawnSurface(i, drawn[i]);
-            viewBodies[i] = body ? ViewBody{body, &dynamics.surfaceMesh(i), &dynamics.embedding(i),
-                                            &dynamics.contactHistory(i).age(), &drawn[i]}
-                                 : ViewBody{};
-        }
         LinearImage linear;
-        Image image;
-        const int moving = blur ? blurSamples(scene, dynamics, objects, frame, bounds, rs) : 1;
-        const int samples = std::max(moving, scene.camera.depthOfField ? scene.camera.dofSamples : 1);
-        if (samples > 1) {
-            linear = accumulatedFrame(renderer, view, scene, dynamics, viewBodies, frame, samples, moving > 1, bounds,
-                                      aspect);
-            image = encodedImageOf(linear);
-        } else {
-            image = renderer.render(view.update(viewBodies, camera), camera, exr ? &linear : nullptr);
-        }
+        Image image = drawer.draw(frame, linear, exr);
         const std::string& path = onDisk;
         png.text = {{"Software", std::string("dgv ") + DGV_VERSION_STRING},
                     {"Source", glName},
