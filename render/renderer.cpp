@@ -339,6 +339,12 @@ std::vector<std::string> RenderSettings::validate() const {
         shadowing += l.shadows ? 1 : 0;
     }
     if (shadowing > 1) problems.push_back("lights: one light casts shadows, " + std::to_string(shadowing) + " ask to");
+    if (environment)
+        for (const Vec3& c : environment->coefficients)
+            if (!c.allFinite()) {
+                problems.push_back("environment: its light must be finite");
+                break;
+            }
     for (int i = 0; i < 3; ++i) {
         if (!(background[i] >= 0 && background[i] <= 1)) {
             problems.push_back("background: expected linear RGB components in [0,1]");
@@ -971,6 +977,14 @@ struct Renderer::Impl {
         setInt(p, "uShadowLight", l.shadowLight);
         setVec3(p, "uSkyColour", Vec3(0.80, 0.87, 1.00) * 0.20);
         setVec3(p, "uBounceColour", Vec3(1.00, 0.95, 0.90) * 0.06);
+        setInt(p, "uEnvironment", settings.environment ? 1 : 0);
+        if (settings.environment) {
+            float c[27];
+            for (int k = 0; k < 9; ++k)
+                for (int j = 0; j < 3; ++j)
+                    c[3 * k + j] = static_cast<float>(settings.environment->coefficients[static_cast<std::size_t>(k)][j]);
+            glUniform3fv(p.uniform("uEnvironmentSH"), 9, c);
+        }
         setMat4(p, "uShadowFromWorld", l.shadowFromWorld);
         setFloat(p, "uShadowRadius", l.shadowRadius);
         setFloat(p, "uNormalOffset", l.normalOffset);

@@ -9,6 +9,7 @@
 #include "base/material.hpp"
 #include "base/types.hpp"
 #include "render/camera.hpp"
+#include "render/environment.hpp"
 
 #include <array>
 #include <memory>
@@ -148,6 +149,9 @@ struct RenderSettings {
     /// The lights (up to kMaxLights; at most one casts shadows); empty: defaultLightRig(). A sky
     /// and ground hemisphere adds its soft ambient light under any rig.
     std::vector<Light> lights;
+    /// The ambient light from every direction (render.environment); unset: the studio's sky and
+    /// bounce hemisphere.
+    std::optional<Environment> environment;
 
     std::vector<std::string> validate() const;  ///< problems by field name; empty when valid
 };

@@ -40,6 +40,10 @@ uniform int uLightFloor[DGV_MAX_LIGHTS];
 uniform int uShadowLight;
 uniform vec3 uSkyColour;     // hemisphere ambient, from above
 uniform vec3 uBounceColour;  // hemisphere ambient, from below
+// render.environment (render/environment.hpp): 1: the ambient light is the environment's nine
+// spherical-harmonic coefficients' (y up), else the sky and bounce hemisphere above.
+uniform int uEnvironment;
+uniform vec3 uEnvironmentSH[9];
 
 uniform sampler2DShadow uShadowMap;
 uniform mat4 uShadowFromWorld;  // world -> [0,1]^3 shadow-map coordinates (orthographic)
@@ -255,7 +259,16 @@ void lightAt(int i, vec3 p, out vec3 l, out vec3 c) {
     c /= r2;
 }
 
-vec3 hemisphere(vec3 n) { return mix(uBounceColour, uSkyColour, 0.5 + 0.5 * n.y); }
+vec3 hemisphere(vec3 n) {
+    if (uEnvironment != 0) {
+        return uEnvironmentSH[0] * 0.282095
+             + (uEnvironmentSH[1] * n.x + uEnvironmentSH[2] * n.y + uEnvironmentSH[3] * n.z) * 0.488603
+             + (uEnvironmentSH[4] * (n.x * n.z) + uEnvironmentSH[5] * (n.x * n.y) + uEnvironmentSH[7] * (n.y * n.z)) * 1.092548
+             + uEnvironmentSH[6] * (0.315392 * (3.0 * n.y * n.y - 1.0))
+             + uEnvironmentSH[8] * (0.546274 * (n.z * n.z - n.x * n.x));
+    }
+    return mix(uBounceColour, uSkyColour, 0.5 + 0.5 * n.y);
+}
 
 // x^s for the two shininess values used (24, 48) by repeated squaring: exact, and much cheaper
 // than pow() (exp2(log2)) on llvmpipe; any other value falls back to pow().

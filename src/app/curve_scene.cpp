@@ -76,6 +76,26 @@ std::vector<Vec3> curveAtRest(const CurveDesc& c) {
     return pts;
 }
 
+/// render.environment as the renderer's ambient light (unset: the studio hemisphere).
+std::optional<Environment> environmentOf(const RenderDesc& desc) {
+    const Real k = desc.environmentIntensity;
+    switch (desc.environment) {
+        case RenderDesc::Environment::Studio:
+            return std::nullopt;
+        case RenderDesc::Environment::Colour:
+            return uniformEnvironment(k * desc.environmentColour);
+        case RenderDesc::Environment::Sky:
+            return skyEnvironment(k * desc.environmentColour, k * desc.environmentGround);
+        case RenderDesc::Environment::Image: {
+            Environment e = equirectEnvironment(*desc.environmentPixels, desc.environmentWidth, desc.environmentHeight,
+                                                desc.environmentRotation);
+            for (Vec3& c : e.coefficients) c *= k;
+            return e;
+        }
+    }
+    return std::nullopt;
+}
+
 RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend) {
     RenderSettings rs;
     rs.width = desc.width;
@@ -88,6 +108,7 @@ RenderSettings renderSettingsOf(const RenderDesc& desc, GlBackend backend) {
     // EXR frames and motion blur (averaged in linear light) need the linear planes.
     rs.linearPlanes = desc.format == RenderDesc::Format::Exr || desc.motionBlur;
     rs.lights = desc.lights;
+    rs.environment = environmentOf(desc);
     rs.backend = backend;
     return rs;
 }

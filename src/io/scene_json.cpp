@@ -5,6 +5,7 @@
 #include "base/progress.hpp"
 #include "io/mesh_import.hpp"
 #include "io/read_file.hpp"
+#include "io/texture.hpp"
 #include "io/vdb_read.hpp"
 
 #include <Eigen/Geometry>
@@ -817,8 +818,37 @@ void readMotionBlur(ObjectReader& g, RenderDesc& d) {
     }
 }
 
+/// render.environment: {"color"}, {"sky", "ground"} or {"image", "rotation"}, with "intensity".
+void readEnvironment(ObjectReader& e, RenderDesc& d, const fs::path& sceneDir) {
+    const int given = (e.has("color") ? 1 : 0) + (e.has("sky") ? 1 : 0) + (e.has("image") ? 1 : 0);
+    if (given != 1) e.fail("", "give one of \"color\", \"sky\" (with \"ground\") or \"image\"");
+    if (e.has("ground") && !e.has("sky")) e.fail("ground", "goes with \"sky\"");
+    if (e.has("rotation") && !e.has("image")) e.fail("rotation", "turns an \"image\"");
+    d.environmentIntensity = e.number("intensity", 1, 0, 1e6);
+    if (e.has("color")) {
+        d.environment = RenderDesc::Environment::Colour;
+        d.environmentColour = e.color("color", d.environmentColour);
+    } else if (e.has("sky")) {
+        d.environment = RenderDesc::Environment::Sky;
+        d.environmentColour = e.color("sky", d.environmentColour);
+        d.environmentGround = e.color("ground", d.environmentGround);
+    } else {
+        d.environment = RenderDesc::Environment::Image;
+        d.environmentImage = resolveInput(sceneDir, e.string("image", "")).string();
+        d.environmentRotation = e.number("rotation", 0, -36000, 36000);
+        try {
+            LinearRgbImage img = readLinearImage(d.environmentImage);
+            d.environmentWidth = img.width;
+            d.environmentHeight = img.height;
+            d.environmentPixels = std::make_shared<const std::vector<Vec3>>(std::move(img.pixels));
+        } catch (const InputError& err) {
+            e.fail("image", err.what());
+        }
+    }
+}
+
 /// render.
-void readRender(ObjectReader& g, RenderDesc& d) {
+void readRender(ObjectReader& g, RenderDesc& d, const fs::path& sceneDir) {
     d.width = g.integer("width", d.width, 16, 16384);
     d.height = g.integer("height", d.height, 16, 16384);
     d.supersample = g.integer("supersample", d.supersample, 1, 4);
@@ -835,6 +865,7 @@ void readRender(ObjectReader& g, RenderDesc& d) {
     d.shadowSoftness = g.number("shadow_softness", d.shadowSoftness, 0, 15);
     d.colliderOpacity = g.number("collider_opacity", d.colliderOpacity, 0, 1);
     readMotionBlur(g, d);
+    g.object("environment", [&](ObjectReader& e) { readEnvironment(e, d, sceneDir); });
     if (d.bitDepth != 8 && d.bitDepth != 16) g.fail("bit_depth", "expected 8 or 16");
     g.object("contact", [&](ObjectReader& c) { readContactHighlight(c, d); });
     readPinDisplay(g, d);
@@ -914,7 +945,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& path) {
     r.array("forces", [&](ObjectReader& f, int) { s.forces.push_back(readForce(f)); });
     r.array("colliders", [&](ObjectReader& c, int) { s.colliders.push_back(readCollider(c, sceneDir)); });
     r.object("camera", [&](ObjectReader& c) { readCamera(c, s.camera); });
-    r.object("render", [&](ObjectReader& g) { readRender(g, s.render); });
+    r.object("render", [&](ObjectReader& g) { readRender(g, s.render, sceneDir); });
 
     std::string outDir = "out/" + s.name;
     r.object("output", [&](ObjectReader& o) {

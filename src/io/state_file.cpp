@@ -424,6 +424,7 @@ std::string sceneFrameKey(const SceneDesc& scene) {
         }
     };
     for (const ObjectDesc& o : scene.objects) mesh(o.meshPath, o.meshName, o.transform.units, !o.colorGiven);
+    file(scene.render.environmentImage);  // the ambient light's image
     for (const ColliderDesc& c : scene.colliders) {
         mesh(c.meshPath, "", c.transform.units, false);
         file(c.levelSetPath);

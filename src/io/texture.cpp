@@ -3,6 +3,7 @@
 #include "base/errors.hpp"
 #include "io/read_file.hpp"
 
+#include <ImfRgbaFile.h>
 #include <stb_image.h>
 
 #include <cstring>
@@ -42,15 +43,88 @@ TextureImage decodeTexture(const unsigned char* bytes, std::size_t size, const s
     return image;
 }
 
-TextureImage readTexture(const std::filesystem::path& path) {
+namespace {
+
+std::vector<unsigned char> readBytes(const std::filesystem::path& path, const char* kind) {
     const std::string p = path.string();
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) throw InputError(p, "", "file not found");
-    checkInputReadable(path, "texture");
+    checkInputReadable(path, kind);
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(p, "", "cannot be opened for reading (permission denied?)");
-    const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    return decodeTexture(bytes.data(), bytes.size(), p);
+    return std::vector<unsigned char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+/// An OpenEXR file's RGB (any layout OpenEXR's RGBA interface reads: half or float, scanline
+/// or tiled, with or without alpha).
+LinearRgbImage readExrRgb(const std::string& p) {
+    LinearRgbImage out;
+    try {
+        Imf::RgbaInputFile file(p.c_str());
+        const Imath::Box2i dw = file.dataWindow();
+        const long long w = static_cast<long long>(dw.max.x) - dw.min.x + 1, h = static_cast<long long>(dw.max.y) - dw.min.y + 1;
+        if (w <= 0 || h <= 0 || w > kMaxTextureSide || h > kMaxTextureSide)
+            throw InputError(p, "", "the image is " + std::to_string(w) + "x" + std::to_string(h) +
+                                         " pixels; at most " + std::to_string(kMaxTextureSide) + " on a side");
+        std::vector<Imf::Rgba> rgba(static_cast<std::size_t>(w * h));
+        file.setFrameBuffer(rgba.data() - dw.min.x - dw.min.y * w, 1, static_cast<std::size_t>(w));
+        file.readPixels(dw.min.y, dw.max.y);
+        out.width = static_cast<int>(w);
+        out.height = static_cast<int>(h);
+        out.pixels.resize(rgba.size());
+        for (std::size_t i = 0; i < rgba.size(); ++i) out.pixels[i] = Vec3(rgba[i].r, rgba[i].g, rgba[i].b);
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw InputError(p, "", std::string("OpenEXR cannot read it: ") + e.what());
+    }
+    return out;
+}
+
+}  // namespace
+
+LinearRgbImage readLinearImage(const std::filesystem::path& path) {
+    const std::vector<unsigned char> bytes = readBytes(path, "environment image");
+    const std::string p = path.string();
+    LinearRgbImage out;
+    const bool exr = bytes.size() >= 4 && bytes[0] == 0x76 && bytes[1] == 0x2f && bytes[2] == 0x31 && bytes[3] == 0x01;
+    if (exr) {
+        out = readExrRgb(p);
+    } else if (bytes.size() < static_cast<std::size_t>(std::numeric_limits<int>::max()) &&
+        stbi_is_hdr_from_memory(bytes.data(), static_cast<int>(bytes.size()))) {
+        int w = 0, h = 0, channels = 0;
+        if (!stbi_info_from_memory(bytes.data(), static_cast<int>(bytes.size()), &w, &h, &channels) || w <= 0 ||
+            h <= 0 || w > kMaxTextureSide || h > kMaxTextureSide)
+            throw InputError(p, "", "not a Radiance HDR image dgv reads, or larger than " +
+                                        std::to_string(kMaxTextureSide) + " pixels on a side");
+        std::unique_ptr<float, void (*)(void*)> f(
+            stbi_loadf_from_memory(bytes.data(), static_cast<int>(bytes.size()), &w, &h, &channels, 3), stbi_image_free);
+        if (!f) throw InputError(p, "", std::string("the HDR image cannot be decoded: ") + stbi_failure_reason());
+        out.width = w;
+        out.height = h;
+        out.pixels.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+        for (std::size_t i = 0; i < out.pixels.size(); ++i)
+            out.pixels[i] = Vec3(f.get()[3 * i], f.get()[3 * i + 1], f.get()[3 * i + 2]);
+    } else {
+        const TextureImage t = decodeTexture(bytes.data(), bytes.size(), p);
+        out.width = t.width;
+        out.height = t.height;
+        out.pixels.resize(static_cast<std::size_t>(t.width) * static_cast<std::size_t>(t.height));
+        for (std::size_t i = 0; i < out.pixels.size(); ++i)
+            out.pixels[i] = Vec3(decodeSrgb(t.rgba[4 * i] / 255.0), decodeSrgb(t.rgba[4 * i + 1] / 255.0),
+                                 decodeSrgb(t.rgba[4 * i + 2] / 255.0));
+    }
+    // Lossy HDR compression leaves small negative values: light is not negative, so they are 0.
+    for (Vec3& c : out.pixels) {
+        if (!c.allFinite()) throw InputError(p, "", "holds a non-finite pixel (infinite or NaN)");
+        c = c.cwiseMax(0.0);
+    }
+    return out;
+}
+
+TextureImage readTexture(const std::filesystem::path& path) {
+    const std::vector<unsigned char> bytes = readBytes(path, "texture");
+    return decodeTexture(bytes.data(), bytes.size(), path.string());
 }
 
 }  // namespace dgv

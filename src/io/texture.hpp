@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace dgv {
 
@@ -23,5 +24,14 @@ TextureImage decodeTexture(const unsigned char* bytes, std::size_t size, const s
 /// Reads and decodes a file. InputError naming the file when it is missing, unreadable or not
 /// an image.
 TextureImage readTexture(const std::filesystem::path& path);
+
+/// An image in linear light (an environment map): Radiance HDR as its floats, any other format
+/// stb_image reads decoded from sRGB. Rows from the top. InputError naming the file as readTexture.
+struct LinearRgbImage {
+    int width = 0;
+    int height = 0;
+    std::vector<Vec3> pixels;
+};
+LinearRgbImage readLinearImage(const std::filesystem::path& path);
 
 }  // namespace dgv

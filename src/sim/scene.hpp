@@ -249,6 +249,18 @@ struct RenderDesc {
     /// render.motion_blur: each frame the average of `motionBlurSamples` renders spread over the
     /// shutter, which closes at the frame's time and stays open `motionBlurShutter` degrees of the
     /// frame (180: half of it). The bodies at the simulation's own substeps, the camera on its path.
+    /// render.environment: the ambient light from every direction. Studio: the sky and bounce
+    /// hemisphere; Colour: one colour; Sky: `environmentColour` above the horizon,
+    /// `environmentGround` below; Image: an equirectangular image (linear, rows from the zenith),
+    /// turned `environmentRotation` degrees about the vertical. Each times `environmentIntensity`.
+    enum class Environment { Studio, Colour, Sky, Image } environment = Environment::Studio;
+    Vec3 environmentColour = Vec3::Ones();  ///< linear RGB
+    Vec3 environmentGround = Vec3::Zero();  ///< linear RGB
+    std::string environmentImage;           ///< the image file (absolute)
+    std::shared_ptr<const std::vector<Vec3>> environmentPixels;  ///< decoded by the scene reader
+    int environmentWidth = 0, environmentHeight = 0;
+    Real environmentIntensity = 1;
+    Real environmentRotation = 0;  ///< degrees
     bool motionBlur = false;
     Real motionBlurShutter = 180;  ///< degrees, (0, 360]
     int motionBlurSamples = 8;     ///< renders a frame, 2..64

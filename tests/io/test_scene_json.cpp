@@ -1,4 +1,5 @@
 #include "base/errors.hpp"
+#include "io/png.hpp"
 #include "io/scene_json.hpp"
 #include "support/helpers.hpp"
 
@@ -449,4 +450,40 @@ TEST_CASE("scene_json: render.motion_blur reads true, false or a shutter and sam
     CHECK_THAT(error(R"({"samples": 65})"), Catch::Contains("render.motion_blur.samples"));
     CHECK_THAT(error(R"({"shuter": 90})"), Catch::Contains("render.motion_blur.shuter") && Catch::Contains("shutter"));
     CHECK_THAT(error("180"), Catch::Contains("render.motion_blur: expected true, false or an object"));
+}
+
+TEST_CASE("scene_json: render.environment reads a colour, a sky or an image, and refuses the rest by name",
+          "[io][scene][environment]") {
+    test::TempDir dir("scene_environment");
+    Image img(4, 2);
+    for (std::uint16_t& v : img.rgba) v = 65535;
+    writePng(dir.path() / "env.png", img);
+    auto scene = [&](const std::string& env) {
+        const fs::path p = dir.path() / "s.json";
+        std::ofstream(p) << R"({"objects": [{"primitive": {"type": "sphere"}}], "render": {"environment": )" + env + "}}";
+        return loadScene(p.string());
+    };
+    CHECK(scene(R"({"color": [1, 1, 1]})").render.environment == RenderDesc::Environment::Colour);
+    const RenderDesc sky = scene(R"({"sky": [1, 1, 1], "ground": [0, 0, 0], "intensity": 2})").render;
+    CHECK(sky.environment == RenderDesc::Environment::Sky);
+    CHECK(sky.environmentIntensity == 2);
+    const RenderDesc image = scene(R"({"image": "env.png", "rotation": 90})").render;
+    CHECK(image.environment == RenderDesc::Environment::Image);
+    CHECK(image.environmentWidth == 4);
+    CHECK(image.environmentHeight == 2);
+    REQUIRE(image.environmentPixels);
+    CHECK((*image.environmentPixels)[0].isApprox(Vec3::Ones()));
+    auto error = [&](const std::string& env) {
+        try {
+            scene(env);
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    CHECK_THAT(error(R"({"image": "none.hdr"})"), Catch::Contains("render.environment.image") && Catch::Contains("file not found"));
+    CHECK_THAT(error(R"({"color": [1, 1, 1], "sky": [1, 1, 1]})"), Catch::Contains("render.environment: give one of"));
+    CHECK_THAT(error(R"({"ground": [1, 1, 1], "color": [1, 1, 1]})"), Catch::Contains("render.environment.ground"));
+    CHECK_THAT(error(R"({"color": [1, 1, 1], "rotation": 3})"), Catch::Contains("render.environment.rotation"));
+    CHECK_THAT(error(R"({"color": [1, 1, 1], "intensity": -1})"), Catch::Contains("render.environment.intensity"));
 }

@@ -7,4 +7,5 @@ list(APPEND DGV_TEST_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/test_linear_planes.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_lights.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_materials.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_environment.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_contact_overlay.cpp)
