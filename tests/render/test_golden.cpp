@@ -13,6 +13,7 @@
 
 #include "base/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/mesh_import.hpp"
 #include "io/png.hpp"
 #include "support/helpers.hpp"
 #include "test_meshes.hpp"
@@ -101,6 +102,30 @@ GoldenScene sixteenBitFrame() {
     g.camera = turntableCamera(boundsOf(g.scene), 0, 35, 35, 1.0);
     g.png.alpha = false;
     g.png.bitDepth = 16;
+    return g;
+}
+
+/// assimp's BoxTextured GLB (its PNG texture inside the file) in its own material, as a scene
+/// without `color` draws it: one turntable frame on the ground, 8-bit RGB.
+GoldenScene texturedAsset() {
+    GoldenScene g;
+    g.name = "textured_asset";
+    g.settings.width = kSize;
+    g.settings.height = kSize;
+    MeshImportOptions o;
+    o.materials = true;
+    const TriangleMesh box = importMesh("/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb", o);
+    REQUIRE(box.hasMaterials());
+    DrawMesh m;
+    m.positions = box.vertices;
+    m.triangles = box.triangles;
+    m.materials = box.materials;
+    m.triangleMaterials = box.triangleMaterials;
+    m.cornerUvs = box.cornerUvs;
+    g.scene.meshes.push_back(m);
+    g.scene.groundPlane = true;
+    g.camera = turntableCamera(boundsOf(g.scene), 35, 25, 35, 1.0);
+    g.png.alpha = false;
     return g;
 }
 
@@ -248,6 +273,11 @@ TEST_CASE("golden: 16-bit frame with a scalar ramp", "[render][golden]") {
     long notEightBit = 0;
     for (std::uint16_t s : img.rgba) notEightBit += s % 257 != 0;
     CHECK(notEightBit > static_cast<long>(img.rgba.size() / 4));
+}
+
+TEST_CASE("golden: a textured asset in its file's material", "[render][golden][materials]") {
+    test::FpTrapsOff guard;
+    checkGolden(texturedAsset());
 }
 
 TEST_CASE("golden: a deliberately changed scene fails the comparison", "[render][golden]") {
