@@ -408,7 +408,7 @@ struct Renderer::Impl {
     // encoded to 16-bit sRGB on the CPU through exact lookup tables.
     GLuint outFbo = 0, outColour = 0;
     // The ground at output size (premultiplied linear), composited under the meshes.
-    GLuint groundFbo = 0, groundColour = 0;
+    GLuint groundFbo = 0, groundColour = 0, groundContact = 0;
     int targetWidth = 0, targetHeight = 0, targetFactor = 0;
     // Key-light shadow map; depthSampler reads it without comparison (the soft shadows'
     // blocker search, texture unit 3).
@@ -589,11 +589,13 @@ struct Renderer::Impl {
         if (sceneColour) glDeleteTextures(1, &sceneColour);
         if (sceneDepth) glDeleteRenderbuffers(1, &sceneDepth);
         if (sceneContact) glDeleteTextures(1, &sceneContact);
+        if (groundContact) glDeleteTextures(1, &groundContact);
         if (outFbo) glDeleteFramebuffers(1, &outFbo);
         if (outColour) glDeleteTextures(1, &outColour);
         if (groundFbo) glDeleteFramebuffers(1, &groundFbo);
         if (groundColour) glDeleteTextures(1, &groundColour);
         sceneFbo = sceneColour = sceneDepth = sceneContact = outFbo = outColour = groundFbo = groundColour = 0;
+        groundContact = 0;
         targetWidth = targetHeight = targetFactor = 0;
     }
 
@@ -650,6 +652,11 @@ struct Renderer::Impl {
 
         makeColourTarget(w, h, outColour, outFbo, "output");
         makeColourTarget(w, h, groundColour, groundFbo, "ground");
+        if (settings.linearPlanes) {  // the ground marks' share of the contact matte
+            groundContact = makeHalfTexture(w, h, GL_R16F);
+            glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_TEXTURE_2D, groundContact, 0);
+            checkFramebuffer("ground with its contact matte");
+        }
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
         checkGlError("creating the render targets");
         targetWidth = w;
@@ -1107,11 +1114,17 @@ struct Renderer::Impl {
         glReadPixels(0, 0, sw, sh, GL_RED, GL_FLOAT, contact.data());
         glReadBuffer(GL_COLOR_ATTACHMENT0);
         std::vector<std::uint16_t> ground;
+        std::vector<float> groundMatte;  // the ground marks' coverage where the ground shows
         if (groundAtOutput) {
             ground.resize(static_cast<std::size_t>(w) * h * 4);
+            groundMatte.resize(static_cast<std::size_t>(w) * h);
             glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
             glPixelStorei(GL_PACK_ALIGNMENT, 2);
             glReadPixels(0, 0, w, h, GL_RGBA, GL_HALF_FLOAT, ground.data());
+            glPixelStorei(GL_PACK_ALIGNMENT, 4);
+            glReadBuffer(GL_COLOR_ATTACHMENT1);
+            glReadPixels(0, 0, w, h, GL_RED, GL_FLOAT, groundMatte.data());
+            glReadBuffer(GL_COLOR_ATTACHMENT0);
         }
         checkGlError("reading the depth and the contact matte");
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -1140,17 +1153,27 @@ struct Renderer::Impl {
                         dst[3] = a;
                     }
                     float nearest = 1, matte = 0;
+                    int covered = 0;  // samples on a mesh
                     for (int j = 0; j < factor; ++j)
                         for (int i = 0; i < factor; ++i) {
                             const std::size_t k = static_cast<std::size_t>(gy * factor + j) * sw + x * factor + i;
                             nearest = std::min(nearest, depth[k]);
+                            covered += depth[k] < 1 ? 1 : 0;
                             matte += contact[k];
                         }
-                    out.contact[o] = std::clamp(matte / static_cast<float>(factor * factor), 0.0f, 1.0f);
+                    const float samples = static_cast<float>(factor * factor);
+                    // A ground drawn at output size lies under every mesh sample: its marks show
+                    // through the rest, as its colour does in the resolve.
+                    const float under = groundMatte.empty()
+                                            ? 0.0f
+                                            : (1 - covered / samples) * groundMatte[static_cast<std::size_t>(gy) * w + x];
+                    out.contact[o] = std::clamp(matte / samples + under, 0.0f, 1.0f);
                     if (nearest < 1) {
                         out.depth[o] = static_cast<float>(B / (2 * Real(nearest) - 1 + A));
                     } else if (!ground.empty() && halfToFloat(ground[(static_cast<std::size_t>(gy) * w + x) * 4 + 3]) > 0) {
-                        const Vec3 dir = worldFromView * Vec3((2 * (x + 0.5) / w - 1) * tx, (2 * (gy + 0.5) / h - 1) * ty, -1);
+                        // a lens sample's view is shifted off axis (Camera::lensShift)
+                        const Vec3 dir = worldFromView * Vec3((2 * (x + 0.5) / w - 1) * tx - camera.lensShift.x(),
+                                                              (2 * (gy + 0.5) / h - 1) * ty - camera.lensShift.y(), -1);
                         const Real t = dir.y() != 0 ? (*groundAtOutput - camera.eye.y()) / dir.y() : -1;
                         if (t > 0) out.depth[o] = static_cast<float>(t);  // dir has view depth 1
                     }
@@ -1461,6 +1484,8 @@ struct Renderer::Impl {
         drawOverlays(scene, f);
         if (f.groundAtOutput) {
             glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
+            const GLenum bothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+            glDrawBuffers(settings.linearPlanes ? 2 : 1, bothTargets);
             glViewport(0, 0, w, h);
             glClearColor(0, 0, 0, 0);
             glClear(GL_COLOR_BUFFER_BIT);

@@ -19,7 +19,8 @@ uniform vec4 uDecalRect;
 uniform int uHasDecal;
 
 #ifdef DGV_CONTACT_OUT
-// RenderSettings::linearPlanes: the ground shows no contact (where it hides a mesh, neither).
+// RenderSettings::linearPlanes: the contact matte is the ground marks' coverage (footprints),
+// times the floor's fade, as its colour.
 layout(location = 0) out vec4 fragColour;
 layout(location = 1) out vec4 fragContact;
 #else
@@ -59,14 +60,19 @@ void main() {
 #endif
     vec3 albedo = uGroundAlbedo;
     vec3 emitted = vec3(0.0);
+    float marked = 0.0;
     if (uHasDecal != 0) {
         vec2 t = (vPosition.xz - uDecalRect.xy) * uDecalRect.zw;
         if (all(greaterThanEqual(t, vec2(0.0))) && all(lessThanEqual(t, vec2(1.0)))) {
             vec4 d = texture(uDecal, t);
             albedo = albedo * (1.0 - d.a) + d.rgb;
             emitted = uDecalGlow * d.rgb;
+            marked = d.a;
         }
     }
     vec3 colour = albedo * irradiance + emitted;
     fragColour = vec4(colour * fade, fade);  // premultiplied
+#ifdef DGV_CONTACT_OUT
+    fragContact = vec4(marked * fade, 0.0, 0.0, fade);
+#endif
 }

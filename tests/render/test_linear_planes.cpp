@@ -179,3 +179,43 @@ TEST_CASE("renderer: keeping the linear planes leaves the colour image as it was
     LinearImage linear;
     CHECK_THROWS_AS(plain.render(twoBalls(false), cam, &linear), std::logic_error);
 }
+
+TEST_CASE("renderer: the contact matte holds the ground marks, on a ground drawn at output size and in the scene pass",
+          "[render][exr]") {
+    // A ball above the ground and a mark (strength 0.8) on the ground in front of it; a second
+    // scene puts the ball's bottom below the ground height, so the ground is drawn in the scene
+    // pass. In both the matte at the mark's centre is its coverage, 0.8 less the marks' raster
+    // (texels of a quarter radius: the nearest texel centres lie 0.18 radius out, where the
+    // smoothstep has taken 8 % off), and 0 on bare floor; the two paths agree.
+    test::FpTrapsOff guard;
+    std::vector<float> atCentre;
+    for (const Real ballY : {0.0, -1.0}) {
+        INFO("ball at y " << ballY << (ballY < -0.5 ? " (ground in the scene pass)" : " (ground at output size)"));
+        FrameScene scene;
+        scene.meshes.push_back(test::uvSphere(Vec3(0, ballY, -1), 0.6));
+        scene.groundHeight = -1.2;
+        GroundMark mark;
+        mark.x = 0;
+        mark.z = 0;  // within the floor's unfaded disc (1.2 bounding radii around the ball)
+        mark.radius = 0.3;
+        mark.strength = 0.8;
+        scene.groundMarks.push_back(mark);
+        Camera cam = frontCamera();
+        cam.eye = Vec3(0, 1.5, 5);
+        cam.target = Vec3(0, -1, 0);
+        Renderer renderer(planeSettings(true));
+        LinearImage planes;
+        renderer.render(scene, cam, &planes);
+        // the pixel that sees the mark's centre, and one that sees bare floor 1.5 m to its side
+        auto pixelOf = [&](const Vec3& p) {
+            const Vec4 c = cam.clipFromView(160.0 / 120.0, 0.1, 100) * cam.viewFromWorld() * Vec4(p.x(), p.y(), p.z(), 1);
+            const int x = static_cast<int>((c.x() / c.w() + 1) / 2 * 160), y = static_cast<int>((1 - c.y() / c.w()) / 2 * 120);
+            REQUIRE((x >= 0 && x < 160 && y >= 0 && y < 120));
+            return static_cast<std::size_t>(y) * 160 + x;
+        };
+        atCentre.push_back(planes.contact[pixelOf(Vec3(0, -1.2, 0))]);
+        CHECK(atCentre.back() == Approx(0.8 * (1 - 0.18 * 0.18 * (3 - 2 * 0.18))).margin(0.03));
+        CHECK(planes.contact[pixelOf(Vec3(1.5, -1.2, 0))] == 0);
+    }
+    CHECK(atCentre[0] == Approx(atCentre[1]).margin(0.03));
+}
