@@ -149,6 +149,7 @@ GlBackend applyRenderOverrides(const RenderOptions& options, SceneDesc& scene, i
                              ") must stay within 16384");
     if (options.format == "exr") scene.render.format = RenderDesc::Format::Exr;
     if (options.format == "png") scene.render.format = RenderDesc::Format::Png;
+    if (!options.motionBlur.empty()) scene.render.motionBlur = options.motionBlur == "on";
     return backend;
 }
 
@@ -380,7 +381,8 @@ int runRender(const RenderOptions& options) {
     int replaced = 0;  // --resume: frames on disk that were incomplete or of another version of the scene
     // What every frame is a function of (io/state_file.hpp), and the GL renderer that drew it:
     // --resume keeps only frames that carry both.
-    const std::string frameKey = sceneFrameKey(scene) + " " + glName;
+    const std::string frameKey = sceneFrameKey(scene) + " " + glName +
+                                 (options.motionBlur.empty() ? std::string() : " motion_blur " + options.motionBlur);
     for (int frame = first; frame <= last; ++frame) {
         if (cancelRequested()) {
             writer.finish();

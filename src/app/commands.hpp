@@ -17,6 +17,7 @@ struct RenderOptions {
     std::string solver;              ///< "chain" or "one": every object's material.solver; empty: the scene's
     std::string glBackend = "auto";  ///< auto | egl | osmesa
     std::string format;              ///< png | exr: the frames' files (render.format); empty: the scene's
+    std::string motionBlur;          ///< on | off: render.motion_blur; empty: the scene's
     bool contactSheet = false;       ///< also <out>/<name>.contact.png: the frames in a grid
     bool movie = false;              ///< also <out>/<name>.mp4 through ffmpeg (must be on PATH)
     bool resume = false;             ///< skip frames whose PNG is already complete (app/resume.hpp)

@@ -247,6 +247,11 @@ void addRender(CLI::App& cli, Commands& c) {
         ->check(CLI::IsMember({"png", "exr"}));
     c.cRender->add_option("--solver", c.render.solver, "Every object's material.solver: chain or one (docs/math.md)")
         ->check(CLI::IsMember({"chain", "one"}));
+    c.cRender
+        ->add_option("--motion-blur", c.render.motionBlur,
+                     "on or off: motion blur (render.motion_blur; on keeps the scene's shutter and samples), e.g. off "
+                     "for a quick preview")
+        ->check(CLI::IsMember({"on", "off"}));
     c.cRender->add_flag("--contact-sheet", c.render.contactSheet, "Also write <name>.contact.png, the frames in a grid");
     c.cRender->add_flag("--movie", c.render.movie,
                       "Also write <name>.mp4 with ffmpeg (H.264 preview; ffmpeg must be on PATH)");

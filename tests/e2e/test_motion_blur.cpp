@@ -117,3 +117,19 @@ TEST_CASE("e2e: a turntable's camera blurs a shape at rest", "[e2e][motion_blur]
     for (std::size_t i = 0; i < sharp.rgba.size(); i += 4) changed += sharp.rgba[i] != blurred.rgba[i];
     CHECK(changed > 300);
 }
+
+TEST_CASE("e2e: --motion-blur off draws the sharp frames, and --resume does not keep them for a blurred render",
+          "[e2e][motion_blur][resume]") {
+    test::TempDir dir("e2e_motion_blur_flag");
+    const Image sharp = renderFrame(dir.path(), throwScene(4, ""), "5", 5);
+    std::ofstream(dir.path() / "s.json") << throwScene(4, R"(, "motion_blur": true)");
+    fs::remove_all(dir.path() / "out");
+    const Run off = runDgvIn(dir.path(), "-q render s.json --frames 5 --out out --motion-blur off");
+    REQUIRE(off.exitCode == 0);
+    CHECK(readPng(dir.path() / "out" / "mb.0005.png").rgba == sharp.rgba);
+    const Run on = runDgvIn(dir.path(), "render s.json --frames 5 --out out --resume");
+    INFO("stderr: " << on.err);
+    CHECK(on.exitCode == 0);
+    CHECK_THAT(on.err, Catch::Contains("kept 0 complete frames, rendered 1"));
+    CHECK(readPng(dir.path() / "out" / "mb.0005.png").rgba != sharp.rgba);
+}
