@@ -683,10 +683,16 @@ void readMeshCollider(ObjectReader& c, ColliderDesc& d, const fs::path& sceneDir
 /// colliders[i].
 ColliderDesc readCollider(ObjectReader& c, const fs::path& sceneDir) {
     ColliderDesc d;
-    std::string type = c.choice("type", "", {"ground", "sphere", "mesh", "levelset"});
+    std::string type = c.choice("type", "", {"ground", "sphere", "mesh", "levelset", "plane"});
     if (type == "ground") {
         d.type = ColliderType::Ground;
         d.height = c.number("height", 0, -HUGE_VAL, HUGE_VAL);
+    } else if (type == "plane") {
+        d.type = ColliderType::Plane;
+        d.centre = c.vec3("point", d.centre);
+        if (!c.has("normal")) c.fail("normal", "missing; a plane needs the normal of its free side");
+        d.normal = c.direction("normal", d.normal);
+        d.size = c.number("size", d.size, 0, 1e6, true);
     } else if (type == "sphere") {
         d.type = ColliderType::Sphere;
         d.centre = c.vec3("centre", d.centre);

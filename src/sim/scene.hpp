@@ -114,13 +114,15 @@ struct ObjectDesc {
     PinDesc pin;
 };
 
-enum class ColliderType { Ground, Sphere, Mesh, LevelSet };
+enum class ColliderType { Ground, Sphere, Mesh, LevelSet, Plane };
 
 struct ColliderDesc {
     ColliderType type = ColliderType::Ground;
     Real height = 0;             ///< ground: y of the plane
-    Vec3 centre = Vec3::Zero();  ///< sphere
+    Vec3 centre = Vec3::Zero();  ///< sphere; plane: a point on it (the drawn square's centre)
     Real radius = 1;             ///< sphere
+    Vec3 normal = Vec3::UnitY();  ///< plane: unit, pointing out of the solid side
+    Real size = 2;                ///< plane: the side of the square drawn (the collider is the whole plane)
     std::string meshPath;        ///< mesh (absolute)
     TransformDesc transform;     ///< mesh, levelset (levelset: uniform scale only)
     std::string levelSetPath;    ///< levelset: the .vdb file (absolute)

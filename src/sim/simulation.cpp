@@ -52,6 +52,11 @@ Simulation::Simulation(const SceneDesc& scene, const std::vector<const Lattice*>
                 c.point = Vec3(0, d.height, 0);
                 c.normal = Vec3::UnitY();
                 break;
+            case ColliderType::Plane:
+                c.kind = Collider::Kind::Plane;
+                c.point = d.centre;
+                c.normal = d.normal.normalized();
+                break;
             case ColliderType::Sphere:
                 c.kind = Collider::Kind::Sphere;
                 c.point = d.centre;

@@ -487,3 +487,19 @@ TEST_CASE("scene_json: render.environment reads a colour, a sky or an image, and
     CHECK_THAT(error(R"({"color": [1, 1, 1], "rotation": 3})"), Catch::Contains("render.environment.rotation"));
     CHECK_THAT(error(R"({"color": [1, 1, 1], "intensity": -1})"), Catch::Contains("render.environment.intensity"));
 }
+
+TEST_CASE("scene_json: a plane collider reads its point, normal and drawn size", "[io][scene][collider]") {
+    const SceneDesc s = parseScene(R"({"objects": [{"primitive": {"type": "sphere"}}],
+      "colliders": [{"type": "plane", "point": [1, 0, 0], "normal": [-2, 0, 0], "size": 3}]})",
+                                   "d.json");
+    REQUIRE(s.colliders.size() == 1);
+    CHECK(s.colliders[0].type == ColliderType::Plane);
+    CHECK(s.colliders[0].centre == Vec3(1, 0, 0));
+    CHECK(s.colliders[0].normal.isApprox(Vec3(-1, 0, 0)));
+    CHECK(s.colliders[0].size == 3);
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}], "colliders": [{"type": "plane"}]})"),
+               Catch::Contains("colliders[0].normal: missing"));
+    CHECK_THAT(errorOf(R"({"objects": [{"primitive": {"type": "sphere"}}],
+                          "colliders": [{"type": "plane", "normal": [0, 0, 0]}]})"),
+               Catch::Contains("colliders[0].normal"));
+}
