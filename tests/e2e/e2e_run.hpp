@@ -2,6 +2,8 @@
 // Running the real dgv executable as a user would, for the end-to-end tests: stdout and stderr
 // kept apart, the exit code, and a snapshot of a folder's files to prove nothing was written.
 
+#include "base/image.hpp"
+
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -84,6 +86,22 @@ inline std::vector<std::string> snapshot(const fs::path& dir) {
 
 inline std::size_t lineCount(const std::string& s) {
     return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
+}
+
+/// The widest run of pixels along a row whose alpha is at least `threshold` (0..1): an
+/// object's extent on a transparent frame, down to its faintest share of a pixel.
+inline int widestRun(const Image& img, double threshold) {
+    int best = 0;
+    for (int y = 0; y < img.height; ++y) {
+        int first = -1, last = -1;
+        for (int x = 0; x < img.width; ++x)
+            if (img.pixel(x, y)[3] >= threshold * 65535) {
+                if (first < 0) first = x;
+                last = x;
+            }
+        if (first >= 0) best = std::max(best, last - first + 1);
+    }
+    return best;
 }
 
 }  // namespace dgv::e2e

@@ -34,21 +34,6 @@ std::string ballScene(Real z, Real radius, Real fStop) {
     return text;
 }
 
-/// The widest run of pixels along a row with alpha at least `threshold`.
-int widestRun(const Image& img, double threshold) {
-    int best = 0;
-    for (int y = 0; y < img.height; ++y) {
-        int first = -1, last = -1;
-        for (int x = 0; x < img.width; ++x)
-            if (img.pixel(x, y)[3] >= threshold * 65535) {
-                if (first < 0) first = x;
-                last = x;
-            }
-        if (first >= 0) best = std::max(best, last - first + 1);
-    }
-    return best;
-}
-
 Image render(const fs::path& dir, const std::string& scene) {
     std::ofstream(dir / "s.json") << scene;
     fs::remove_all(dir / "out");

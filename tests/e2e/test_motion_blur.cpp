@@ -30,21 +30,6 @@ std::string throwScene(Real speed, const std::string& blur) {
            blur + "}}";
 }
 
-/// The longest run of pixels along a row whose alpha is at least `threshold` (0..1).
-int widestRun(const Image& img, double threshold) {
-    int best = 0;
-    for (int y = 0; y < img.height; ++y) {
-        int first = -1, last = -1;
-        for (int x = 0; x < img.width; ++x)
-            if (img.pixel(x, y)[3] >= threshold * 65535) {
-                if (first < 0) first = x;
-                last = x;
-            }
-        if (first >= 0) best = std::max(best, last - first + 1);
-    }
-    return best;
-}
-
 Image renderFrame(const fs::path& dir, const std::string& scene, const std::string& frames, int frame) {
     std::ofstream(dir / "s.json") << scene;
     const Run r = runDgvIn(dir, "-q render s.json --frames " + frames + " --out out");
