@@ -559,8 +559,8 @@ TriangleMesh importMesh(const fs::path& path, const MeshImportOptions& options, 
     checkPlyHeader(path);
 
     Assimp::DefaultLogger::kill();  // the null logger: assimp prints nothing
+    std::vector<std::string> opened{p};  // outlives the importer and its file system
     Assimp::Importer importer;
-    std::vector<std::string> opened{p};
     importer.SetIOHandler(new RecordingIOSystem(opened));  // the importer owns it
     // Positions (and, with the materials, texture coordinates and embedded textures) are all
     // dgv uses: drop the rest before post-processing so that vertices that differ only in
