@@ -152,6 +152,28 @@ bool isClosedOriented(const std::vector<std::array<int, 3>>& triangles) {
     return true;
 }
 
+/// The index buffer (slot.renderTriangles) from the triangles over render vertices, in runs of
+/// one material (stable: triangle order within a run), and the runs (slot.ranges).
+void orderByMaterial(MeshSlot& slot, const std::vector<std::array<int, 3>>& byTriangle) {
+    const std::size_t nt = byTriangle.size();
+    slot.ranges.clear();
+    const bool materials = slot.triangleMaterials.size() == nt;
+    std::vector<std::size_t> order(nt);
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    if (materials)
+        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+            return slot.triangleMaterials[a] < slot.triangleMaterials[b];
+        });
+    slot.renderTriangles.resize(nt);
+    for (std::size_t i = 0; i < nt; ++i) {
+        slot.renderTriangles[i] = byTriangle[order[i]];
+        const int m = materials ? slot.triangleMaterials[order[i]] : -1;
+        if (slot.ranges.empty() || slot.ranges.back().material != m)
+            slot.ranges.push_back({m, static_cast<GLsizei>(3 * i), 0});
+        slot.ranges.back().count += 3;
+    }
+}
+
 /// Splits mesh vertices along crease edges. Around each vertex, two triangles that share an
 /// edge through it belong to the same smoothing group when the angle between their face
 /// normals is at most `creaseDegrees`; each group becomes one render vertex, whose normal is
@@ -281,23 +303,7 @@ void buildRenderTopology(MeshSlot& slot, std::size_t nv, const std::vector<Vec3f
         const std::size_t g = static_cast<std::size_t>(slot.normalGroup[static_cast<std::size_t>(cornerRender[c])]);
         slot.adjacency[static_cast<std::size_t>(fill[g]++)] = static_cast<int>(c / 3);
     }
-    // The index buffer in runs of one material (stable: triangle order within a run).
-    slot.ranges.clear();
-    const bool materials = slot.triangleMaterials.size() == nt;
-    std::vector<std::size_t> order(nt);
-    std::iota(order.begin(), order.end(), std::size_t{0});
-    if (materials)
-        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-            return slot.triangleMaterials[a] < slot.triangleMaterials[b];
-        });
-    slot.renderTriangles.resize(nt);
-    for (std::size_t i = 0; i < nt; ++i) {
-        slot.renderTriangles[i] = byTriangle[order[i]];
-        const int m = materials ? slot.triangleMaterials[order[i]] : -1;
-        if (slot.ranges.empty() || slot.ranges.back().material != m)
-            slot.ranges.push_back({m, static_cast<GLsizei>(3 * i), 0});
-        slot.ranges.back().count += 3;
-    }
+    orderByMaterial(slot, byTriangle);
     slot.closed = isClosedOriented(tris);
 }
 
@@ -1484,7 +1490,6 @@ struct Renderer::Impl {
         drawOverlays(scene, f);
         if (f.groundAtOutput) {
             glBindFramebuffer(GL_FRAMEBUFFER, groundFbo);
-            const GLenum bothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
             glDrawBuffers(settings.linearPlanes ? 2 : 1, bothTargets);
             glViewport(0, 0, w, h);
             glClearColor(0, 0, 0, 0);
