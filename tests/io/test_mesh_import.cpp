@@ -17,12 +17,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path kModels = "/usr/share/assimp/models";
+const fs::path& kModels = test::kAssimpModels;
 
 fs::path write(const fs::path& dir, const std::string& name, const std::string& text) {
-    const fs::path p = dir / name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p;
+    return test::writeFile(dir, name, text);
 }
 
 TriangleMesh import(const fs::path& p, const std::string& name = "", MeshImportReport* report = nullptr) {

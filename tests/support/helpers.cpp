@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdio>
+#include <fstream>
 #include <stdexcept>
 
 namespace dgv::test {
@@ -45,5 +46,11 @@ CommandResult runDgv(const std::string& args) {
 }
 
 fs::path sourcePath(const std::string& relative) { return fs::path(DGV_TEST_SOURCE_DIR) / relative; }
+
+std::filesystem::path writeFile(const std::filesystem::path& dir, const std::string& name, const std::string& text) {
+    const std::filesystem::path p = dir / name;
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+}
 
 }  // namespace dgv::test

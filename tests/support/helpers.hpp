@@ -43,4 +43,10 @@ CommandResult runDgv(const std::string& args);
 /// Absolute path of a file in the source tree (e.g. "scenes/default.json").
 std::filesystem::path sourcePath(const std::string& relative);
 
+/// assimp's own test models (Debian's assimp-testmodels, a declared test dependency).
+inline const std::filesystem::path kAssimpModels = "/usr/share/assimp/models";
+
+/// Writes `text` to dir/name (binary) and returns that path.
+std::filesystem::path writeFile(const std::filesystem::path& dir, const std::string& name, const std::string& text);
+
 }  // namespace dgv::test
