@@ -379,15 +379,8 @@ struct Collector {
                     slot = std::make_shared<const TextureImage>(embeddedTexture(*t, path + " (embedded texture " + ref + ")"));
                 return slot;
             }
-            std::string written = ref;
-            std::replace(written.begin(), written.end(), '\\', '/');
-            const fs::path folder = fs::path(path).parent_path();
-            fs::path file = folder / written;
+            const fs::path file = textureFile(ref);
             std::error_code ec;
-            if (!fs::is_regular_file(file, ec)) {
-                const fs::path alone = folder / fs::path(written).filename();
-                if (fs::is_regular_file(alone, ec)) file = alone;
-            }
             if (!decode) {
                 if (fs::is_regular_file(file, ec)) report.filesRead.push_back(file.string());
                 return slot;
@@ -400,6 +393,29 @@ struct Collector {
                        "; the material is drawn in its colour");
         }
         return slot;
+    }
+
+    /// The file a texture reference names, beside the mesh: as written (`\\` read as `/`), else
+    /// its last component alone, else either with another letter case (files made on Windows
+    /// name `TEST.PNG` for `test.png`). The first candidate when none is there.
+    fs::path textureFile(const std::string& ref) const {
+        std::string written = ref;
+        std::replace(written.begin(), written.end(), '\\', '/');
+        const fs::path folder = fs::path(path).parent_path();
+        const fs::path candidates[2] = {(folder / written).lexically_normal(), folder / fs::path(written).filename()};
+        std::error_code ec;
+        for (const fs::path& c : candidates)
+            if (fs::is_regular_file(c, ec)) return c;
+        auto lower = [](std::string t) {
+            for (char& ch : t) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+            return t;
+        };
+        for (const fs::path& c : candidates) {
+            const std::string want = lower(c.filename().string());
+            for (fs::directory_iterator it(c.parent_path(), ec), end; !ec && it != end; it.increment(ec))
+                if (it->is_regular_file(ec) && lower(it->path().filename().string()) == want) return it->path();
+        }
+        return candidates[0];
     }
 
     /// An embedded texture: compressed bytes (PNG, JPEG, ...; mHeight 0) or raw BGRA texels.

@@ -120,6 +120,21 @@ TEST_CASE("materials import: an OBJ's MTL colours, its texture and the corners' 
     }
 }
 
+TEST_CASE("materials import: a texture named in another letter case or with a Windows folder is found beside the mesh",
+          "[io][materials]") {
+    test::TempDir dir("materials-case");
+    writeRedBluePng(dir.path() / "rb.png");
+    write(dir.path(), "square.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nKd 1 1 1\nmap_Kd C:\\textures\\RB.PNG\n");
+    MeshImportReport report;
+    const TriangleMesh m = importLook(write(dir.path(), "square.obj", kSquareObj), &report);
+    CHECK(report.texturesMissing == 0);
+    CHECK(report.textures == 1);
+    bool found = false;
+    for (const SurfaceMaterial& mat : m.materials)
+        if (mat.baseColourMap) found = mat.baseColourMap->source == (dir.path() / "rb.png").string();
+    CHECK(found);
+}
+
 TEST_CASE("materials import: a texture that is not there is one warning, the material keeps its colour",
           "[io][materials]") {
     test::TempDir dir("materials-missing");
