@@ -82,12 +82,11 @@ const TriangleMesh& DynamicsRun::surfaceMesh(std::size_t i) const {
 }
 
 void DynamicsRun::drawnSurface(std::size_t i, std::vector<Vec3>& vertices) const {
-    const DeformableBody* b = body(i);
-    if (b) mSim->drawnSurface(i, vertices);
-    if (!b)
+    if (!body(i)) {
         vertices = mObjects[i].restMesh.vertices;
-    else if (vertices.empty())  // a body without a surface of its own
-        deformVertices(embedding(i), b->state(), vertices);
+        return;
+    }
+    mSim->drawnSurface(i, vertices);  // every moving object's surface is set (constructor)
 }
 
 const MeshEmbedding& DynamicsRun::embedding(std::size_t i) const {

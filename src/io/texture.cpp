@@ -7,8 +7,6 @@
 #include <stb_image.h>
 
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <memory>
 
@@ -45,15 +43,8 @@ TextureImage decodeTexture(const unsigned char* bytes, std::size_t size, const s
 
 namespace {
 
-std::vector<unsigned char> readBytes(const std::filesystem::path& path, const char* kind) {
-    const std::string p = path.string();
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) throw InputError(p, "", "file not found");
-    checkInputReadable(path, kind);
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(p, "", "cannot be opened for reading (permission denied?)");
-    return std::vector<unsigned char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+/// The largest image file read (stb_image counts its input in an int).
+constexpr std::uintmax_t kMaxImageBytes = static_cast<std::uintmax_t>(std::numeric_limits<int>::max());
 
 /// An OpenEXR file's RGB (any layout OpenEXR's RGBA interface reads: half or float, scanline
 /// or tiled, with or without alpha).
@@ -84,29 +75,34 @@ LinearRgbImage readExrRgb(const std::string& p) {
 }  // namespace
 
 LinearRgbImage readLinearImage(const std::filesystem::path& path) {
-    const std::vector<unsigned char> bytes = readBytes(path, "environment image");
+    // (an EXR is read again by OpenEXR, from the page cache: this read tells a failing disk apart)
+    const std::string text = readInputFile(path, "environment image", kMaxImageBytes);
+    const auto* bytes = reinterpret_cast<const unsigned char*>(text.data());
+    const std::size_t size = text.size();
     const std::string p = path.string();
     LinearRgbImage out;
-    const bool exr = bytes.size() >= 4 && bytes[0] == 0x76 && bytes[1] == 0x2f && bytes[2] == 0x31 && bytes[3] == 0x01;
+    const bool exr = size >= 4 && bytes[0] == 0x76 && bytes[1] == 0x2f && bytes[2] == 0x31 && bytes[3] == 0x01;
     if (exr) {
         out = readExrRgb(p);
-    } else if (bytes.size() < static_cast<std::size_t>(std::numeric_limits<int>::max()) &&
-        stbi_is_hdr_from_memory(bytes.data(), static_cast<int>(bytes.size()))) {
+    } else if (stbi_is_hdr_from_memory(bytes, static_cast<int>(size))) {
         int w = 0, h = 0, channels = 0;
-        if (!stbi_info_from_memory(bytes.data(), static_cast<int>(bytes.size()), &w, &h, &channels) || w <= 0 ||
+        if (!stbi_info_from_memory(bytes, static_cast<int>(size), &w, &h, &channels) || w <= 0 ||
             h <= 0 || w > kMaxTextureSide || h > kMaxTextureSide)
             throw InputError(p, "", "not a Radiance HDR image dgv reads, or larger than " +
                                         std::to_string(kMaxTextureSide) + " pixels on a side");
         std::unique_ptr<float, void (*)(void*)> f(
-            stbi_loadf_from_memory(bytes.data(), static_cast<int>(bytes.size()), &w, &h, &channels, 3), stbi_image_free);
-        if (!f) throw InputError(p, "", std::string("the HDR image cannot be decoded: ") + stbi_failure_reason());
+            stbi_loadf_from_memory(bytes, static_cast<int>(size), &w, &h, &channels, 3), stbi_image_free);
+        if (!f) {
+            const char* why = stbi_failure_reason();
+            throw InputError(p, "", std::string("the HDR image cannot be decoded: ") + (why ? why : "unknown error"));
+        }
         out.width = w;
         out.height = h;
         out.pixels.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
         for (std::size_t i = 0; i < out.pixels.size(); ++i)
             out.pixels[i] = Vec3(f.get()[3 * i], f.get()[3 * i + 1], f.get()[3 * i + 2]);
     } else {
-        const TextureImage t = decodeTexture(bytes.data(), bytes.size(), p);
+        const TextureImage t = decodeTexture(bytes, size, p);
         out.width = t.width;
         out.height = t.height;
         out.pixels.resize(static_cast<std::size_t>(t.width) * static_cast<std::size_t>(t.height));
@@ -123,8 +119,8 @@ LinearRgbImage readLinearImage(const std::filesystem::path& path) {
 }
 
 TextureImage readTexture(const std::filesystem::path& path) {
-    const std::vector<unsigned char> bytes = readBytes(path, "texture");
-    return decodeTexture(bytes.data(), bytes.size(), path.string());
+    const std::string bytes = readInputFile(path, "texture", kMaxImageBytes);
+    return decodeTexture(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), path.string());
 }
 
 }  // namespace dgv

@@ -21,8 +21,8 @@ constexpr int kMaxTextureSide = 16384;
 /// kMaxTextureSide on a side.
 TextureImage decodeTexture(const unsigned char* bytes, std::size_t size, const std::string& source);
 
-/// Reads and decodes a file. InputError naming the file when it is missing, unreadable or not
-/// an image.
+/// Reads (io/read_file: a failing disk is a RuntimeError) and decodes a file. InputError naming
+/// the file when it is missing, unreadable or not an image.
 TextureImage readTexture(const std::filesystem::path& path);
 
 /// An image in linear light (an environment map): Radiance HDR as its floats, any other format

@@ -146,7 +146,7 @@ TEST_CASE("e2e: a texture that is not there is one warning naming it, and the sh
     INFO("stderr: " << r.err);
     REQUIRE(r.exitCode == 0);
     CHECK_THAT(r.err, Catch::Contains("material 'front': texture 'textures/gone.png'") &&
-                          Catch::Contains("file not found; the material is drawn in its colour"));
+                          Catch::Contains("no such file; the material is drawn in its colour"));
     const Tally t = tally(readPng(dir.path() / "out" / "tex.0001.png"));
     CHECK(t.red == 0);
     CHECK(t.blue == 0);

@@ -23,12 +23,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path& kModels = test::kAssimpModels;
-
-fs::path write(const fs::path& dir, const std::string& name, const std::string& text) {
-    return test::writeFile(dir, name, text);
-}
-
 TriangleMesh importLook(const fs::path& p, MeshImportReport* report = nullptr, bool materials = true) {
     test::FpTrapsOff guard;
     MeshImportOptions options;
@@ -58,8 +52,8 @@ const char* kSquareObj =
 TEST_CASE("materials import: an OBJ's MTL colours, its texture and the corners' coordinates", "[io][materials]") {
     test::TempDir dir("materials-obj");
     writeRedBluePng(dir.path() / "rb.png");
-    write(dir.path(), "square.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nKd 0.5 0.25 1\nmap_Kd rb.png\n");
-    const fs::path obj = write(dir.path(), "square.obj", kSquareObj);
+    test::writeFile(dir.path(), "square.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nKd 0.5 0.25 1\nmap_Kd rb.png\n");
+    const fs::path obj = test::writeFile(dir.path(), "square.obj", kSquareObj);
     MeshImportReport report;
     const TriangleMesh m = importLook(obj, &report);
     REQUIRE(m.hasMaterials());
@@ -124,9 +118,9 @@ TEST_CASE("materials import: a texture named in another letter case or with a Wi
           "[io][materials]") {
     test::TempDir dir("materials-case");
     writeRedBluePng(dir.path() / "rb.png");
-    write(dir.path(), "square.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nKd 1 1 1\nmap_Kd C:\\textures\\RB.PNG\n");
+    test::writeFile(dir.path(), "square.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nKd 1 1 1\nmap_Kd C:\\textures\\RB.PNG\n");
     MeshImportReport report;
-    const TriangleMesh m = importLook(write(dir.path(), "square.obj", kSquareObj), &report);
+    const TriangleMesh m = importLook(test::writeFile(dir.path(), "square.obj", kSquareObj), &report);
     CHECK(report.texturesMissing == 0);
     CHECK(report.textures == 1);
     bool found = false;
@@ -138,8 +132,8 @@ TEST_CASE("materials import: a texture named in another letter case or with a Wi
 TEST_CASE("materials import: a texture that is not there is one warning, the material keeps its colour",
           "[io][materials]") {
     test::TempDir dir("materials-missing");
-    write(dir.path(), "square.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nKd 0.5 0.25 1\nmap_Kd gone.png\n");
-    const fs::path obj = write(dir.path(), "square.obj", kSquareObj);
+    test::writeFile(dir.path(), "square.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nKd 0.5 0.25 1\nmap_Kd gone.png\n");
+    const fs::path obj = test::writeFile(dir.path(), "square.obj", kSquareObj);
     MeshImportReport report;
     const TriangleMesh m = importLook(obj, &report);
     REQUIRE(m.hasMaterials());
@@ -147,7 +141,7 @@ TEST_CASE("materials import: a texture that is not there is one warning, the mat
     CHECK(report.textures == 0);
     for (const SurfaceMaterial& mat : m.materials) CHECK(!mat.baseColourMap);
     SECTION("a file that is not an image") {
-        write(dir.path(), "gone.png", "not a png at all");
+        test::writeFile(dir.path(), "gone.png", "not a png at all");
         MeshImportReport r2;
         importLook(obj, &r2);
         CHECK(r2.texturesMissing == 1);
@@ -156,7 +150,7 @@ TEST_CASE("materials import: a texture that is not there is one warning, the mat
 
 TEST_CASE("materials import: files without materials have no look of their own", "[io][materials]") {
     test::TempDir dir("materials-none");
-    const fs::path obj = write(dir.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+    const fs::path obj = test::writeFile(dir.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
     const TriangleMesh m = importLook(obj);
     CHECK(!m.hasMaterials());
     CHECK(m.materials.empty());
@@ -170,7 +164,7 @@ TEST_CASE("materials import: assimp's textured models", "[io][materials]") {
         for (const char* file : {"glTF2/BoxTextured-glTF/BoxTextured.gltf", "glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"}) {
             INFO(file);
             MeshImportReport report;
-            const TriangleMesh m = importLook(kModels / file, &report);
+            const TriangleMesh m = importLook(test::kAssimpModels / file, &report);
             REQUIRE(m.hasMaterials());
             REQUIRE(m.materials.size() == 1);
             const SurfaceMaterial& mat = m.materials[0];
@@ -192,7 +186,7 @@ TEST_CASE("materials import: assimp's textured models", "[io][materials]") {
         }
     }
     SECTION("Collada's duck with its TGA") {
-        const TriangleMesh m = importLook(kModels / "Collada/duck.dae");
+        const TriangleMesh m = importLook(test::kAssimpModels / "Collada/duck.dae");
         REQUIRE(m.hasMaterials());
         REQUIRE(m.materials.size() == 1);
         REQUIRE(m.materials[0].baseColourMap);
@@ -201,7 +195,7 @@ TEST_CASE("materials import: assimp's textured models", "[io][materials]") {
     }
     SECTION("the OBJ spider: JPEGs named with Windows paths") {
         MeshImportReport report;
-        const TriangleMesh m = importLook(kModels / "OBJ/spider.obj", &report);
+        const TriangleMesh m = importLook(test::kAssimpModels / "OBJ/spider.obj", &report);
         REQUIRE(m.hasMaterials());
         // the four materials its meshes use, each with its JPEG found beside the file
         CHECK(report.materials == 4);
@@ -249,7 +243,7 @@ TEST_CASE("texture: images decode to what was written, what is not an image is r
         const std::string junk = "this is no image at all";
         CHECK_THROWS_WITH(decodeTexture(reinterpret_cast<const unsigned char*>(junk.data()), junk.size(), "junk.png"),
                           Catch::StartsWith("junk.png: ") && Catch::Contains("not an image dgv reads"));
-        CHECK_THROWS_WITH(readTexture(dir.path() / "none.png"), Catch::Contains("none.png: file not found"));
+        CHECK_THROWS_WITH(readTexture(dir.path() / "none.png"), Catch::Contains("none.png: no such file"));
         CHECK_THROWS_WITH(decodeTexture(nullptr, 0, "empty.png"), Catch::Contains("empty.png: the image is empty"));
     }
 }

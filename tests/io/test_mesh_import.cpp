@@ -17,12 +17,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path& kModels = test::kAssimpModels;
-
-fs::path write(const fs::path& dir, const std::string& name, const std::string& text) {
-    return test::writeFile(dir, name, text);
-}
-
 TriangleMesh import(const fs::path& p, const std::string& name = "", MeshImportReport* report = nullptr) {
     test::FpTrapsOff guard;
     MeshImportOptions options;
@@ -85,7 +79,7 @@ const char* kTetraBufferNaN =  // vertex 2 is (NaN, 1, 0)
 TEST_CASE("mesh_import: OBJ quads are triangulated into a closed cube", "[io]") {
     test::TempDir dir("mesh-import-obj");
     MeshImportReport report;
-    const TriangleMesh m = import(write(dir.path(), "cube.obj", kCubeObj), "", &report);
+    const TriangleMesh m = import(test::writeFile(dir.path(), "cube.obj", kCubeObj), "", &report);
     CHECK(m.triangleCount() == 12);
     CHECK(m.vertexCount() == 8);
     const MeshReport r = analyseMesh(m);
@@ -98,7 +92,7 @@ TEST_CASE("mesh_import: OBJ quads are triangulated into a closed cube", "[io]") 
 
 TEST_CASE("mesh_import: PLY and unwelded STL import closed", "[io]") {
     test::TempDir dir("mesh-import-ply-stl");
-    const fs::path ply = write(dir.path(), "tetra.ply",
+    const fs::path ply = test::writeFile(dir.path(), "tetra.ply",
                                "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
                                "property float y\nproperty float z\nelement face 4\n"
                                "property list uchar int vertex_indices\nend_header\n"
@@ -118,7 +112,7 @@ TEST_CASE("mesh_import: PLY and unwelded STL import closed", "[io]") {
         stl += "endloop\nendfacet\n";
     }
     stl += "endsolid t\n";
-    const TriangleMesh b = import(write(dir.path(), "tetra.stl", stl));
+    const TriangleMesh b = import(test::writeFile(dir.path(), "tetra.stl", stl));
     CHECK(b.vertexCount() == 4);
     CHECK(analyseMesh(b).closed);
     CHECK(meshSignedVolume(b) == Approx(1.0 / 6).epsilon(1e-6));
@@ -126,7 +120,7 @@ TEST_CASE("mesh_import: PLY and unwelded STL import closed", "[io]") {
 
 TEST_CASE("mesh_import: node transforms are applied and mirrors keep normals outward", "[io]") {
     test::TempDir dir("mesh-import-gltf");
-    const fs::path p = write(dir.path(), "tetras.gltf", tetraGltf(kTetraBuffer));
+    const fs::path p = test::writeFile(dir.path(), "tetras.gltf", tetraGltf(kTetraBuffer));
 
     MeshImportReport report;
     const TriangleMesh all = import(p, "", &report);
@@ -160,26 +154,26 @@ TEST_CASE("mesh_import: node transforms are applied and mirrors keep normals out
 
 TEST_CASE("mesh_import: non-finite coordinates are input errors", "[io]") {
     test::TempDir dir("mesh-import-nan");
-    CHECK(problemOf(write(dir.path(), "nan.gltf", tetraGltf(kTetraBufferNaN))) ==
+    CHECK(problemOf(test::writeFile(dir.path(), "nan.gltf", tetraGltf(kTetraBufferNaN))) ==
           "mesh 'Tetra' vertex 2 has a non-finite coordinate");
-    CHECK(problemOf(write(dir.path(), "inf.obj", "v 0 0 0\nv 1 0 0\nv inf 1 0\nf 1 2 3\n"))
+    CHECK(problemOf(test::writeFile(dir.path(), "inf.obj", "v 0 0 0\nv 1 0 0\nv inf 1 0\nf 1 2 3\n"))
               .find("has a non-finite coordinate") != std::string::npos);
-    REQUIRE(fs::exists(kModels / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb"));
-    CHECK(problemOf(kModels / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb").find("non-finite") !=
+    REQUIRE(fs::exists(test::kAssimpModels / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb"));
+    CHECK(problemOf(test::kAssimpModels / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb").find("non-finite") !=
           std::string::npos);
 }
 
 TEST_CASE("mesh_import: files without triangles are input errors", "[io]") {
     test::TempDir dir("mesh-import-empty");
-    CHECK(problemOf(write(dir.path(), "lines.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\np 1\n")) ==
+    CHECK(problemOf(test::writeFile(dir.path(), "lines.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\np 1\n")) ==
           "no triangles (the file holds only points and lines)");
-    CHECK(problemOf(write(dir.path(), "points.ply",
+    CHECK(problemOf(test::writeFile(dir.path(), "points.ply",
                           "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
                           "property float z\nend_header\n0 0 0\n1 1 1\n"))
               .rfind("no triangles", 0) == 0);
-    CHECK(problemOf(write(dir.path(), "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")) ==
+    CHECK(problemOf(test::writeFile(dir.path(), "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")) ==
           "no triangles (all 1 triangles are degenerate)");
-    CHECK(problemOf(write(dir.path(), "bad-index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"))
+    CHECK(problemOf(test::writeFile(dir.path(), "bad-index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"))
               .rfind("assimp could not read it: ", 0) == 0);
 }
 
@@ -187,20 +181,20 @@ TEST_CASE("mesh_import: missing files, folders and empty files are input errors"
     test::TempDir dir("mesh-import-missing");
     CHECK(problemOf(dir.path() / "nothing.obj") == "file not found");
     CHECK(problemOf(dir.path()) == "is a directory, expected a mesh file");
-    CHECK(problemOf(write(dir.path(), "empty.obj", "")) == "the file is empty");
-    CHECK(problemOf(write(dir.path(), "text.obj", "this is not a mesh\n")).rfind("no triangles", 0) == 0);
+    CHECK(problemOf(test::writeFile(dir.path(), "empty.obj", "")) == "the file is empty");
+    CHECK(problemOf(test::writeFile(dir.path(), "text.obj", "this is not a mesh\n")).rfind("no triangles", 0) == 0);
 }
 
 TEST_CASE("mesh_import: assimp's broken test models are input errors, never crashes", "[io]") {
-    REQUIRE(fs::is_directory(kModels));  // package assimp-testmodels (scripts/install-deps.sh)
+    REQUIRE(fs::is_directory(test::kAssimpModels));  // package assimp-testmodels (scripts/install-deps.sh)
     std::vector<fs::path> broken;
-    for (const auto& e : fs::directory_iterator(kModels / "invalid"))
+    for (const auto& e : fs::directory_iterator(test::kAssimpModels / "invalid"))
         if (e.is_regular_file()) broken.push_back(e.path());
     for (const char* f : {"OFF/invalid.off", "glTF2/IndexOutOfRange/AllIndicesOutOfRange.gltf",
                           "glTF2/RecursiveNodes/RecursiveNodes.gltf", "glTF2/MissingBin/BoxTextured.gltf",
                           "glTF2/TestNoRootNode/NoScene.gltf", "glTF2/wrongTypes/badArray.gltf",
                           "glTF2/SchemaFailures/sceneWrongType.gltf", "OBJ/point_cloud.obj"})
-        broken.push_back(kModels / f);
+        broken.push_back(test::kAssimpModels / f);
     REQUIRE(broken.size() >= 20);
     for (const fs::path& p : broken) {
         INFO(p.string());
@@ -212,7 +206,7 @@ TEST_CASE("mesh_import: assimp's broken test models are input errors, never cras
         CHECK(problemOf(p) != "no error");
     }
     // A header declaring 3.5e11 vertices in 309 bytes: refused before assimp reserves memory.
-    CHECK(problemOf(kModels / "invalid/OutOfMemory.off").find("OFF header declares") != std::string::npos);
+    CHECK(problemOf(test::kAssimpModels / "invalid/OutOfMemory.off").find("OFF header declares") != std::string::npos);
 }
 
 // assimp 5.2's OFF reader trusts the counts it reads; these files crashed it (found by
@@ -221,24 +215,24 @@ TEST_CASE("mesh_import: OFF files are checked in full before assimp reads them",
     test::TempDir dir("mesh-import-off");
     const std::string verts = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
     const std::string faces = "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
-    CHECK(import(write(dir.path(), "tet.off", "OFF\n4 4 0\n" + verts + faces)).triangleCount() == 4);
-    CHECK(import(write(dir.path(), "tet1.off", "OFF 4 4 0\n# a comment\n" + verts + faces)).triangleCount() == 4);
-    CHECK(import(kModels / "OFF/Cube.off").triangleCount() == 12);
+    CHECK(import(test::writeFile(dir.path(), "tet.off", "OFF\n4 4 0\n" + verts + faces)).triangleCount() == 4);
+    CHECK(import(test::writeFile(dir.path(), "tet1.off", "OFF 4 4 0\n# a comment\n" + verts + faces)).triangleCount() == 4);
+    CHECK(import(test::kAssimpModels / "OFF/Cube.off").triangleCount() == 12);
 
     // The fuzzer's crash: a fourth face with 0 vertices followed by junk.
-    CHECK(whereOf(write(dir.path(), "zero.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n3 0 1 3\n3 0 3 2\n0v 0 0\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "zero.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n3 0 1 3\n3 0 3 2\n0v 0 0\n")) ==
           "line 10: expected a face's vertex count, got '0v'");
-    CHECK(whereOf(write(dir.path(), "zero2.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n3 0 1 3\n3 0 3 2\n0\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "zero2.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n3 0 1 3\n3 0 3 2\n0\n")) ==
           "line 10: a face with 0 vertices (expected 1 to 64)");
-    CHECK(whereOf(write(dir.path(), "index.off", "OFF\n4 1 0\n" + verts + "3 0 2 4\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "index.off", "OFF\n4 1 0\n" + verts + "3 0 2 4\n")) ==
           "line 7: face vertex index '4' is not in [0, 4)");
-    CHECK(whereOf(write(dir.path(), "short.off", "OFF\n4 1 0\n" + verts + "4 0 2 1\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "short.off", "OFF\n4 1 0\n" + verts + "4 0 2 1\n")) ==
           "line 7: the face lists fewer than its 4 vertex indices");
-    CHECK(whereOf(write(dir.path(), "trunc.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "trunc.off", "OFF\n4 4 0\n" + verts + "3 0 2 1\n")) ==
           "line 7: the file ends after 1 of 4 faces");
-    CHECK(whereOf(write(dir.path(), "vnan.off", "OFF\n4 1 0\n0 0 0\n1 nan 0\n0 1 0\n0 0 1\n3 0 1 2\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "vnan.off", "OFF\n4 1 0\n0 0 0\n1 nan 0\n0 1 0\n0 0 1\n3 0 1 2\n")) ==
           "line 4: vertex coordinate 'nan' is not a finite number");
-    CHECK(whereOf(write(dir.path(), "counts.off", "OFF\nfour 4 0\n" + verts + faces)) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "counts.off", "OFF\nfour 4 0\n" + verts + faces)) ==
           "line 2: expected a vertex count, got 'four'");
 }
 
@@ -251,42 +245,42 @@ TEST_CASE("mesh_import: PLY headers are checked before assimp reads them", "[io]
         "property float x\nproperty float y\nproperty float z\n"
         "element face 4\nproperty list uchar int vertex_indices\n";
     const std::string body = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
-    CHECK(import(write(dir.path(), "tet.ply", head + "end_header\n" + body)).triangleCount() == 4);
+    CHECK(import(test::writeFile(dir.path(), "tet.ply", head + "end_header\n" + body)).triangleCount() == 4);
     std::string crlf;
     for (char c : head + "end_header\n" + body) {
         if (c == '\n') crlf += '\r';
         crlf += c;
     }
-    CHECK(import(write(dir.path(), "crlf.ply", crlf)).triangleCount() == 4);
-    CHECK(import(kModels / "PLY/cube.ply").triangleCount() == 12);
+    CHECK(import(test::writeFile(dir.path(), "crlf.ply", crlf)).triangleCount() == 4);
+    CHECK(import(test::kAssimpModels / "PLY/cube.ply").triangleCount() == 12);
     // Header lines starting with an unknown word are skipped as assimp skips them: Blender 2.47
     // writes "Created by Blender3D 247 ..." as the third line.
     const std::string created =
         "ply\nformat ascii 1.0\nCreated by Blender3D 247 - www.blender.org, source file: \n"
         "obj_info num_cols 4\n" +
         head.substr(head.find("element"));
-    CHECK(import(write(dir.path(), "created.ply", created + "end_header\n" + body)).triangleCount() == 4);
-    REQUIRE(fs::exists(kModels / "PLY/Wuson.ply"));
-    CHECK(import(kModels / "PLY/Wuson.ply").triangleCount() > 3000);
+    CHECK(import(test::writeFile(dir.path(), "created.ply", created + "end_header\n" + body)).triangleCount() == 4);
+    REQUIRE(fs::exists(test::kAssimpModels / "PLY/Wuson.ply"));
+    CHECK(import(test::kAssimpModels / "PLY/Wuson.ply").triangleCount() > 3000);
 
     // The fuzzer's input: the header runs into the data and the file ends without end_header.
-    CHECK(whereOf(write(dir.path(), "fuzz.ply", head + "en3\n3 0 3 2\n3 1 2 3\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "fuzz.ply", head + "en3\n3 0 3 2\n3 1 2 3\n")) ==
           "line 11: unexpected '3' in the PLY header (expected element, property, comment or end_header)");
-    CHECK(whereOf(write(dir.path(), "fuzz2.ply", head + "en3\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "fuzz2.ply", head + "en3\n")) ==
           "line 10: the PLY header has no 'end_header' line");
-    CHECK(whereOf(write(dir.path(), "noend.ply", head)) == "line 9: the PLY header has no 'end_header' line");
+    CHECK(whereOf(test::writeFile(dir.path(), "noend.ply", head)) == "line 9: the PLY header has no 'end_header' line");
     // Detected by the magic whatever the extension, as assimp does.
-    CHECK(whereOf(write(dir.path(), "noend.mesh", head)) == "line 9: the PLY header has no 'end_header' line");
-    CHECK(whereOf(write(dir.path(), "format.ply", "ply\nformat text 1.0\nend_header\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "noend.mesh", head)) == "line 9: the PLY header has no 'end_header' line");
+    CHECK(whereOf(test::writeFile(dir.path(), "format.ply", "ply\nformat text 1.0\nend_header\n")) ==
           "line 2: unknown PLY format 'text' (expected ascii, binary_little_endian or binary_big_endian)");
-    CHECK(whereOf(write(dir.path(), "type.ply",
+    CHECK(whereOf(test::writeFile(dir.path(), "type.ply",
                         "ply\nformat ascii 1.0\nelement vertex 1\nproperty real x\nend_header\n0\n")) ==
           "line 4: unknown PLY property type 'real'");
-    CHECK(whereOf(write(dir.path(), "orphan.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "orphan.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n")) ==
           "line 3: a PLY property before any element");
-    CHECK(whereOf(write(dir.path(), "count.ply", "ply\nformat ascii 1.0\nelement vertex 99999999\nend_header\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "count.ply", "ply\nformat ascii 1.0\nelement vertex 99999999\nend_header\n")) ==
           "line 3: the PLY header declares more elements than a 56-byte file can hold");
-    CHECK(whereOf(write(dir.path(), "magic.ply", "plyx\nformat ascii 1.0\n")) ==
+    CHECK(whereOf(test::writeFile(dir.path(), "magic.ply", "plyx\nformat ascii 1.0\n")) ==
           "line 1: not a PLY file: the first line must be 'ply'");
 }
 
@@ -299,7 +293,7 @@ TEST_CASE("mesh_import: inside-out parts are turned around, each part on its own
         "f 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n"
         "f 9 12 11 10\nf 13 14 15 16\nf 9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\nf 12 9 13 16\n";
     MeshImportReport report;
-    const TriangleMesh m = import(write(dir.path(), "two.obj", two), "", &report);
+    const TriangleMesh m = import(test::writeFile(dir.path(), "two.obj", two), "", &report);
     CHECK(report.orientation.parts == 2);
     CHECK(report.orientation.flippedParts == 1);
     CHECK(report.orientation.volumeBefore == Approx(0.0).margin(1e-12));  // -1 + 1
@@ -313,16 +307,16 @@ TEST_CASE("mesh_import: inside-out parts are turned around, each part on its own
         "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
         "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
         "f 9 10 11 12\nf 13 16 15 14\nf 9 13 14 10\nf 10 14 15 11\nf 11 15 16 12\nf 12 16 13 9\n";
-    const TriangleMesh box = import(write(dir.path(), "hollow.obj", hollow), "", &report);
+    const TriangleMesh box = import(test::writeFile(dir.path(), "hollow.obj", hollow), "", &report);
     CHECK(report.orientation.parts == 2);
     CHECK(report.orientation.flippedParts == 0);
     CHECK(analyseMesh(box).signedVolume == Approx(27.0 - 1.0).epsilon(1e-12));
     // An outward mesh is left as it is.
-    const TriangleMesh cube = import(write(dir.path(), "cube.obj", kCubeObj), "", &report);
+    const TriangleMesh cube = import(test::writeFile(dir.path(), "cube.obj", kCubeObj), "", &report);
     CHECK(report.orientation.flippedParts == 0);
     CHECK(analyseMesh(cube).signedVolume == Approx(1.0).epsilon(1e-12));
     // assimp's OFF/Wuson.off is wound inside out (signed volume about -1.1): it comes in outward.
-    const TriangleMesh wuson = import(kModels / "OFF/Wuson.off", "", &report);
+    const TriangleMesh wuson = import(test::kAssimpModels / "OFF/Wuson.off", "", &report);
     CHECK(report.orientation.volumeBefore < -1);
     CHECK(report.orientation.flippedParts >= 1);
     CHECK(analyseMesh(wuson).signedVolume > 1);
@@ -330,9 +324,9 @@ TEST_CASE("mesh_import: inside-out parts are turned around, each part on its own
 
 TEST_CASE("mesh_import: real models from assimp's test set", "[io]") {
     MeshImportReport report;
-    const TriangleMesh duck = import(kModels / "Collada/duck.dae", "", &report);
+    const TriangleMesh duck = import(test::kAssimpModels / "Collada/duck.dae", "", &report);
     CHECK(duck.triangleCount() > 4000);
-    const TriangleMesh teapots = import(kModels / "Collada/teapot_instancenodes.DAE", "", &report);
+    const TriangleMesh teapots = import(test::kAssimpModels / "Collada/teapot_instancenodes.DAE", "", &report);
     CHECK(report.meshesMerged > 1);  // instanced nodes each contribute
     CHECK(teapots.triangleCount() > 0);
 }
@@ -341,16 +335,16 @@ TEST_CASE("mesh_import: real models from assimp's test set", "[io]") {
 // spider.fbx is in centimetres: 15,059 x 7,974 x 19,338 units after its node transforms (each
 // node scales by 100: Blender's exporter writing metres as centimetres), so 150 m across.
 TEST_CASE("mesh_import: FBX units are scaled to metres", "[io]") {
-    REQUIRE(fs::exists(kModels / "FBX/spider.fbx"));
+    REQUIRE(fs::exists(test::kAssimpModels / "FBX/spider.fbx"));
     MeshImportReport report;
-    const TriangleMesh spider = import(kModels / "FBX/spider.fbx", "", &report);
+    const TriangleMesh spider = import(test::kAssimpModels / "FBX/spider.fbx", "", &report);
     CHECK(report.unitScale == Approx(0.01));
     const Vec3 size = analyseMesh(spider).bounds.size();
     CHECK(size.x() == Approx(150.59).epsilon(1e-3));
     CHECK(size.y() == Approx(79.74).epsilon(1e-3));
     CHECK(size.z() == Approx(193.38).epsilon(1e-3));
     // Files without a unit are taken as they are.
-    CHECK(import(kModels / "PLY/cube.ply", "", &report).triangleCount() == 12);
+    CHECK(import(test::kAssimpModels / "PLY/cube.ply", "", &report).triangleCount() == 12);
     CHECK(report.unitScale == 1);
 }
 
@@ -358,7 +352,7 @@ TEST_CASE("mesh_import: FBX units are scaled to metres", "[io]") {
 // dgv_tests "[sweep]").
 TEST_CASE("mesh_import: sweep over every assimp test model", "[.][sweep]") {
     std::size_t imported = 0, refused = 0;
-    for (const auto& e : fs::recursive_directory_iterator(kModels)) {
+    for (const auto& e : fs::recursive_directory_iterator(test::kAssimpModels)) {
         if (!e.is_regular_file()) continue;
         try {
             import(e.path());

@@ -481,7 +481,7 @@ TEST_CASE("scene_json: render.environment reads a colour, a sky or an image, and
         }
         return std::string("no error");
     };
-    CHECK_THAT(error(R"({"image": "none.hdr"})"), Catch::Contains("render.environment.image") && Catch::Contains("file not found"));
+    CHECK_THAT(error(R"({"image": "none.hdr"})"), Catch::Contains("render.environment.image") && Catch::Contains("no such file"));
     CHECK_THAT(error(R"({"color": [1, 1, 1], "sky": [1, 1, 1]})"), Catch::Contains("render.environment: give one of"));
     CHECK_THAT(error(R"({"ground": [1, 1, 1], "color": [1, 1, 1]})"), Catch::Contains("render.environment.ground"));
     CHECK_THAT(error(R"({"color": [1, 1, 1], "rotation": 3})"), Catch::Contains("render.environment.rotation"));
